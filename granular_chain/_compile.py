@@ -1,0 +1,45 @@
+"""Calling compiled kernels specialised on compile-time feature codes.
+
+Kernels take their feature codes (contact law, friction present, walls, stop
+mode) as integer arguments and pass them through ``numba.literally``, so numba
+compiles one specialisation per feature set, prunes the absent features'
+branches and caches each specialisation on disk (``cache=True``); closures
+over law functions, the other common way to specialise, are not cacheable.
+
+Dispatching a literal argument from Python re-runs type inference on every
+call (tens of milliseconds for a large kernel), so :func:`specialised` looks
+the compiled specialisation up once and returns its entry point, which then
+costs a fraction of a microsecond per call.
+"""
+
+from __future__ import annotations
+
+import numba
+from numba import types
+
+_ENTRIES: dict = {}
+
+
+def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
+    """The compiled entry point of ``dispatcher`` for these arguments.
+
+    Parameters
+    ----------
+    dispatcher : numba Dispatcher
+        An ``@njit`` function that calls ``numba.literally`` on the arguments at
+        positions ``literal``.
+    args : tuple
+        A representative argument tuple (only its types and the literal values
+        matter; the kernel is not run).
+    literal : tuple of int
+        Positions of the integer feature codes.
+    """
+    sig = tuple(types.literal(a) if i in literal else numba.typeof(a)
+                for i, a in enumerate(args))
+    key = (dispatcher, sig)
+    entry = _ENTRIES.get(key)
+    if entry is None:
+        dispatcher.compile(sig)  # compile, or load from the on-disk cache
+        entry = dispatcher.overloads[sig].entry_point
+        _ENTRIES[key] = entry
+    return entry

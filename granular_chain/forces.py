@@ -1,0 +1,86 @@
+"""The one neighbour loop: net spring force on every granule from the laws present.
+
+Contacts are only between neighbours i, i+1 (granules never pass each other),
+and optionally between the end granules and fixed walls. The loop is written
+once; the contact law and the wall branches are compile-time constants of the
+caller's specialisation, so a scene without walls compiles no wall code and
+n = 5/2 compiles ``d*sqrt(d)``.
+
+Overlaps are formed from displacements (see :mod:`granular_chain.model`)::
+
+    delta_i = d0_i + u_i - u_(i+1)          contact i, between i and i+1
+    delta_L = d0_L - u_0                    left wall
+    delta_R = d0_R + u_(N-1)                right wall
+"""
+
+import numba
+
+from .laws.contact import contact_energy, contact_force
+
+
+@numba.njit(inline="always", cache=True)
+def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
+    """Fill contact forces ``c`` (N-1,) and net spring forces ``f`` (N,).
+
+    Parameters
+    ----------
+    law, left_wall, right_wall : int
+        Compile-time feature codes.
+    u : ndarray, shape (N,)
+        Displacements from the initial positions.
+    d0, k, n : ndarray, shape (N-1,)
+        Initial overlaps, force coefficients, exponents of the contacts.
+    walls : ndarray, shape (6,)
+        (d0, k, n) of the left then right wall contact.
+    c : ndarray, shape (N-1,)
+        Output: compressive force of each contact (>= 0).
+    f : ndarray, shape (N,)
+        Output: net spring force on each granule (positive to the right).
+    """
+    N = u.size
+    # Two passes keep both loops free of a loop-carried value, so they vectorise.
+    for i in range(N - 1):
+        c[i] = contact_force(law, d0[i] + u[i] - u[i + 1], k[i], n[i])
+    if N > 1:
+        f[0] = -c[0]
+        for i in range(1, N - 1):
+            f[i] = c[i - 1] - c[i]
+        f[N - 1] = c[N - 2]
+    else:
+        f[0] = 0.0
+    if left_wall:
+        f[0] += contact_force(law, walls[0] - u[0], walls[1], walls[2])
+    if right_wall:
+        f[N - 1] -= contact_force(law, walls[3] + u[N - 1], walls[4], walls[5])
+
+
+@numba.njit(inline="always", cache=True)
+def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
+    """Total elastic energy stored in the contacts and walls (sum of V(delta))."""
+    N = u.size
+    e = 0.0
+    for i in range(N - 1):
+        e += contact_energy(law, d0[i] + u[i] - u[i + 1], k[i], n[i])
+    if left_wall:
+        e += contact_energy(law, walls[0] - u[0], walls[1], walls[2])
+    if right_wall:
+        e += contact_energy(law, walls[3] + u[N - 1], walls[4], walls[5])
+    return e
+
+
+@numba.njit(cache=True)
+def total_potential(law, left_wall, right_wall, u, d0, k, n, walls):
+    """Compiled entry point for :func:`potential_energy` (called at output frames)."""
+    law = numba.literally(law)
+    left_wall = numba.literally(left_wall)
+    right_wall = numba.literally(right_wall)
+    return potential_energy(law, left_wall, right_wall, u, d0, k, n, walls)
+
+
+@numba.njit(cache=True)
+def net_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
+    """Compiled entry point for :func:`spring_forces` (initial forces, writers)."""
+    law = numba.literally(law)
+    left_wall = numba.literally(left_wall)
+    right_wall = numba.literally(right_wall)
+    spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f)

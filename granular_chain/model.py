@@ -1,0 +1,219 @@
+"""Scene -> packed float64 arrays and the set of features present.
+
+This is the last place where strings and pydantic objects exist: kernels see
+only the arrays of :class:`Model` and the integer codes of :class:`Features`.
+
+State convention (why displacements): positions are carried as displacements
+``u_i`` from the initial positions ``X_i`` (the paper's ``x_i``), and the overlap
+of contact i is formed as ``delta_i = d0_i + u_i - u_(i+1)`` with the initial
+overlap ``d0_i = r_i + r_(i+1) - (X_(i+1) - X_i)`` computed once. Overlaps are
+then never the difference of two large absolute positions, so a chain far from
+the origin or a tiny late overlap keeps its digits.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .scene import Scene
+
+__all__ = ["Features", "Model", "build_model", "LAW_LINEAR", "LAW_HERTZ", "LAW_POWER"]
+
+# Contact-law codes: compile-time constants for the kernels (never strings there).
+LAW_LINEAR = 0  # n = 2: force k*delta
+LAW_HERTZ = 1  # n = 5/2: force k*delta*sqrt(delta), no pow
+LAW_POWER = 2  # any other n > 1: force k*delta**(n-1)
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a scene needs; each flag selects a compiled building block.
+
+    Attributes
+    ----------
+    law : int
+        LAW_LINEAR, LAW_HERTZ or LAW_POWER, the contact law of every contact
+        (mixed exponents use LAW_POWER).
+    coulomb : bool
+        Some granule has kinetic friction (eta_i > 0).
+    viscous : bool
+        Some granule has hydrodynamic friction (gamma_i > 0).
+    left_wall, right_wall : bool
+        Walls present.
+    """
+
+    law: int
+    coulomb: bool
+    viscous: bool
+    left_wall: bool
+    right_wall: bool
+
+    @property
+    def friction(self) -> bool:
+        return self.coulomb or self.viscous
+
+    def describe(self) -> dict:
+        return {
+            "law": {LAW_LINEAR: "linear (n=2)", LAW_HERTZ: "hertz (n=5/2)",
+                    LAW_POWER: "power"}[self.law],
+            "coulomb": self.coulomb, "viscous": self.viscous,
+            "left_wall": self.left_wall, "right_wall": self.right_wall,
+        }
+
+
+@dataclass
+class Model:
+    """A scene packed into arrays (float64, contiguous), in the scene's units.
+
+    Attributes
+    ----------
+    mass, inv_mass, radius : ndarray, shape (N,)
+        Masses m_i, 1/m_i and radii r_i.
+    x0 : ndarray, shape (N,)
+        Initial centre positions X_i (granule 0 centred at its radius).
+    v0 : ndarray, shape (N,)
+        Initial velocities.
+    d0 : ndarray, shape (N-1,)
+        Initial overlaps of the contacts (negative = open gap).
+    k, n : ndarray, shape (N-1,)
+        Force coefficient and potential exponent of each contact: force k*delta^(n-1).
+    walls : ndarray, shape (6,)
+        (d0, k, n) of the left wall contact then the right one (zeros if absent).
+    eta, eta_static, gamma : ndarray, shape (N,)
+        Kinetic friction force, static threshold (>= eta) and viscous coefficient.
+    features : Features
+    """
+
+    mass: np.ndarray
+    inv_mass: np.ndarray
+    radius: np.ndarray
+    x0: np.ndarray
+    v0: np.ndarray
+    d0: np.ndarray
+    k: np.ndarray
+    n: np.ndarray
+    walls: np.ndarray
+    eta: np.ndarray
+    eta_static: np.ndarray
+    gamma: np.ndarray
+    features: Features
+    units: str = "scaled"
+    name: str = "scene"
+    extras: dict = field(default_factory=dict)
+
+    @property
+    def count(self) -> int:
+        return self.mass.size
+
+    def shortest_period(self) -> float:
+        """Shortest small-oscillation period of any contact (for default dt and checks).
+
+        For a linear contact between masses m_a, m_b the period is
+        2*pi*sqrt(mu/k) with mu the reduced mass. For n != 2 the contact has no
+        fixed period; the duration of a collision at the largest relative speed
+        in the scene, t_c ~ 3.2 (mu^2 / (k^2 v))^(1/(n)) scaled form, is used
+        (paper Appendix A: time scale B = (m v^2/k)^(1/n) / v).
+        """
+        vmax = float(np.max(np.abs(self.v0))) if self.count else 0.0
+        vrel = max(vmax, 1e-300)
+        best = math.inf
+        pairs = []
+        for i in range(self.count - 1):
+            mu = self.mass[i] * self.mass[i + 1] / (self.mass[i] + self.mass[i + 1])
+            pairs.append((mu, self.k[i], self.n[i], self.d0[i]))
+        w = self.walls
+        if self.features.left_wall:
+            pairs.append((self.mass[0], w[1], w[2], w[0]))
+        if self.features.right_wall:
+            pairs.append((self.mass[-1], w[4], w[5], w[3]))
+        for mu, k, n, d0 in pairs:
+            if n == 2.0:
+                best = min(best, 2 * math.pi * math.sqrt(mu / k))
+            else:
+                # Time scale of a collision at speed vrel (Appendix A's B), with
+                # the local stiffness of a precompressed contact if that is larger.
+                b = (mu * vrel * vrel / k) ** (1.0 / n) / vrel
+                if d0 > 0:
+                    k_local = k * (n - 1) * d0 ** (n - 2)
+                    b = min(b, 2 * math.pi * math.sqrt(mu / k_local))
+                best = min(best, 3.2 * b)
+        return best
+
+
+def _per(value, count: int) -> np.ndarray:
+    arr = np.asarray(value if isinstance(value, list) else [value] * count, dtype=np.float64)
+    return np.ascontiguousarray(arr.reshape(count))
+
+
+def hertz_stiffness(young_a, poisson_a, young_b, poisson_b, r_a, r_b) -> float:
+    """Hertz force coefficient of two spheres: F = k delta^(3/2), k = (4/3) E* sqrt(R*).
+
+    E* = 1 / ((1-nu_a^2)/E_a + (1-nu_b^2)/E_b), R* = r_a r_b / (r_a + r_b).
+    For identical spheres this is (2/3) E/(1-nu^2) sqrt(R/2) = (5/2) a, with ``a`` the
+    *potential* coefficient of the paper's eq. (1)-(3) (V = a delta^(5/2)).
+    """
+    e_star = 1.0 / ((1 - poisson_a ** 2) / young_a + (1 - poisson_b ** 2) / young_b)
+    r_star = r_a * r_b / (r_a + r_b)
+    return 4.0 / 3.0 * e_star * math.sqrt(r_star)
+
+
+def build_model(scene: Scene) -> Model:
+    """Pack a validated scene into a :class:`Model`."""
+    g = scene.granules
+    N = g.count
+    mass = _per(g.mass, N)
+    radius = _per(g.radius, N)
+    v0 = _per(g.velocity, N)
+    gaps = _per(g.gap, N - 1) if N > 1 else np.zeros(0)
+    x0 = np.empty(N)
+    x0[0] = radius[0]
+    for i in range(N - 1):
+        x0[i + 1] = x0[i] + radius[i] + radius[i + 1] + gaps[i]
+    d0 = np.ascontiguousarray(-gaps)
+    n_exp = _per(scene.contacts.exponent, N - 1) if N > 1 else np.zeros(0)
+    if scene.contacts.stiffness == "hertz":
+        mat = g.material
+        E = _per(mat.young, N)
+        nu = _per(mat.poisson, N)
+        k = np.array([hertz_stiffness(E[i], nu[i], E[i + 1], nu[i + 1], radius[i], radius[i + 1])
+                      for i in range(N - 1)], dtype=np.float64)
+    else:
+        k = _per(scene.contacts.stiffness, N - 1) if N > 1 else np.zeros(0)
+    walls = np.zeros(6)
+    left, right = scene.walls.left, scene.walls.right
+    if left is not None:
+        walls[0:3] = (-left.gap, left.stiffness, left.exponent)
+    if right is not None:
+        walls[3:6] = (-right.gap, right.stiffness, right.exponent)
+    fr = g.friction
+    eta = _per(fr.kinetic, N)
+    eta_s = _per(fr.static, N) if fr.static is not None else eta.copy()
+    gamma = _per(fr.viscous, N)
+
+    exps = list(n_exp)
+    if left is not None:
+        exps.append(left.exponent)
+    if right is not None:
+        exps.append(right.exponent)
+    if all(e == 2.0 for e in exps):
+        law = LAW_LINEAR
+    elif all(e == 2.5 for e in exps):
+        law = LAW_HERTZ
+    else:
+        law = LAW_POWER
+    features = Features(
+        law=law,
+        coulomb=bool(np.any(eta > 0) or np.any(eta_s > 0)),
+        viscous=bool(np.any(gamma > 0)),
+        left_wall=left is not None,
+        right_wall=right is not None,
+    )
+    return Model(
+        mass=mass, inv_mass=1.0 / mass, radius=radius, x0=x0, v0=v0, d0=d0,
+        k=np.ascontiguousarray(k, dtype=np.float64), n=n_exp, walls=walls,
+        eta=eta, eta_static=eta_s, gamma=gamma, features=features,
+        units=scene.units, name=scene.name,
+    )

@@ -1,0 +1,178 @@
+"""The result of a run: arrays, energy ledger, event log, status and message.
+
+Shaped after scipy's ``OdeResult``: one flat object, ``status`` (an enum,
+every way a run can end has its own), a human ``message`` and ``success``.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+__all__ = ["Status", "Event", "EnergyLedger", "Result"]
+
+
+class Status(enum.IntEnum):
+    """How a run ended. Non-negative values are successes."""
+
+    T_END = 0  #: reached t_end
+    SEPARATED = 1  #: the watched contact opened (stop: separation)
+    AT_REST = 2  #: every granule at rest (stop: rest)
+    MAX_STEPS = -1  #: refused to take more than run.max_steps steps
+    NONFINITE = -2  #: NaN or Inf appeared in the state
+    MAX_EVENTS = -3  #: event stepper: more than run.max_events events
+    ZENO = -4  #: event stepper: events accumulate at a finite time
+
+    @property
+    def success(self) -> bool:
+        return self.value >= 0
+
+
+@dataclass(frozen=True)
+class Event:
+    """One non-smooth moment of the motion.
+
+    Attributes
+    ----------
+    t : float
+        Time of the event.
+    kind : str
+        One of ``contact_close``, ``contact_open``, ``stop``, ``slip``.
+    index : int
+        Contact index (contacts: -1 left wall, N-1 right wall) or granule index.
+    """
+
+    t: float
+    kind: str
+    index: int
+
+
+@dataclass
+class EnergyLedger:
+    """Energy bookkeeping at each output frame, all arrays of shape (F,).
+
+    ``initial = kinetic + potential + coulomb + viscous`` holds up to the
+    integrator's error, reported as :attr:`balance_error`.
+
+    Attributes
+    ----------
+    kinetic, potential : ndarray
+        Kinetic energy sum(m v^2 / 2) and elastic energy of the contacts.
+    coulomb, viscous : ndarray
+        Energy dissipated so far by kinetic (Coulomb) and hydrodynamic friction (>= 0).
+    initial : float
+        Kinetic plus elastic energy at t = 0.
+    """
+
+    kinetic: np.ndarray
+    potential: np.ndarray
+    coulomb: np.ndarray
+    viscous: np.ndarray
+    initial: float
+
+    @property
+    def balance(self) -> np.ndarray:
+        """kinetic + potential + coulomb + viscous - initial, shape (F,)."""
+        return self.kinetic + self.potential + self.coulomb + self.viscous - self.initial
+
+    @property
+    def balance_error(self) -> float:
+        """Largest |balance| over the frames, relative to the initial energy."""
+        if self.kinetic.size == 0:
+            return 0.0
+        scale = self.initial if self.initial > 0 else 1.0
+        return float(np.max(np.abs(self.balance)) / scale)
+
+    def final(self) -> dict:
+        return {
+            "kinetic": float(self.kinetic[-1]),
+            "potential": float(self.potential[-1]),
+            "friction_dissipated": float(self.coulomb[-1]),
+            "viscous_dissipated": float(self.viscous[-1]),
+            "initial": float(self.initial),
+            "balance_error": float(self.balance[-1]),
+            "balance_error_relative": float(self.balance[-1] / (self.initial or 1.0)),
+            "max_balance_error_relative": self.balance_error,
+        }
+
+
+@dataclass
+class Result:
+    """Everything a run produced.
+
+    Attributes
+    ----------
+    t : ndarray, shape (F,)
+        Times of the output frames (the scene's time unit).
+    x, v, f : ndarray, shape (F, N)
+        Centre positions, velocities and net spring forces at the frames.
+    energy : EnergyLedger
+        Energy ledger at the frames.
+    events : list of Event
+        Event log (event stepper); the Verlet stepper only counts events.
+    event_counts : dict
+        Number of events of each kind.
+    status : Status
+        How the run ended.
+    message : str
+        Human explanation of the status.
+    steps : int
+        Steps (Verlet) or mode segments (event stepper) taken.
+    wall_time : float
+        Seconds spent stepping (compilation included on a cold cache).
+    stepper : str
+        ``verlet`` or ``event``.
+    dt : float or None
+        Verlet time step.
+    t_final : float
+        Time of the final state (for stop: separation, the located separation time).
+    x_final, v_final : ndarray, shape (N,)
+        Final state (never NaN: a run that produced NaN ends at its last finite frame).
+    info : dict
+        Extra facts (features, units mapping, warnings).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+    energy: EnergyLedger
+    status: Status
+    message: str
+    steps: int
+    wall_time: float
+    stepper: str
+    dt: Optional[float]
+    t_final: float
+    x_final: np.ndarray
+    v_final: np.ndarray
+    events: list = field(default_factory=list)
+    event_counts: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        return self.status.success
+
+    def summary(self) -> dict:
+        """A JSON-ready summary (what ``granular-chain run`` writes as summary.json)."""
+        return {
+            "status": self.status.name.lower(),
+            "status_code": int(self.status),
+            "success": self.success,
+            "message": self.message,
+            "stepper": self.stepper,
+            "dt": self.dt,
+            "t_final": float(self.t_final),
+            "x_final": [float(a) for a in self.x_final],
+            "v_final": [float(a) for a in self.v_final],
+            "event_counts": {k: int(n) for k, n in self.event_counts.items()},
+            "energy": self.energy.final(),
+            "steps": int(self.steps),
+            "frames": int(self.t.size),
+            "wall_time_s": float(self.wall_time),
+            **{k: v for k, v in self.info.items()},
+        }

@@ -1,0 +1,265 @@
+"""simulate(scene) -> Result: the driver that runs compiled chunks between output frames.
+
+Python only runs between chunks: it records frames, checks the state for
+NaN/Inf at the output cadence, updates the progress bar and decides when to
+stop. The chunks themselves are compiled kernels (:mod:`.steppers.verlet`).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from typing import Optional, Union
+
+import numpy as np
+
+from ._compile import specialised
+from .forces import net_forces, total_potential
+from .laws.friction import phi1, phi2
+from .model import Model, build_model
+from .result import EnergyLedger, Result, Status
+from .scene import Scene
+from .steppers import verlet
+from .units import scaled_parameters
+
+__all__ = ["simulate", "SimulationError", "default_dt"]
+
+# Velocity Verlet on a linear contact of period T is unstable for dt > T/pi.
+_STABILITY_FRACTION = 1.0 / math.pi
+_DEFAULT_STEPS_PER_PERIOD = 200
+_DEFAULT_FRAMES = 1000
+
+
+class SimulationError(ValueError):
+    """A run refused before it started (with the field to change and the limit)."""
+
+
+def default_dt(model: Model) -> float:
+    """1/200 of the shortest contact period (or collision time) in the scene."""
+    T = model.shortest_period()
+    if not math.isfinite(T):
+        return 1e-2
+    return T / _DEFAULT_STEPS_PER_PERIOD
+
+
+def _kick_coefficients(model: Model, h: float):
+    cv = model.gamma * model.inv_mass
+    E = np.exp(-cv * h)
+    P1 = np.array([phi1(c, h) for c in cv])
+    P2 = np.array([phi2(c, h) for c in cv])
+    return cv, E, P1, P2
+
+
+class _Frames:
+    """Growing lists of output frames (converted to arrays once at the end)."""
+
+    def __init__(self):
+        self.t, self.x, self.v, self.f = [], [], [], []
+        self.ke, self.pe, self.dc, self.dv = [], [], [], []
+
+    def record(self, t, x, v, f, ke, pe, dc, dv):
+        self.t.append(t)
+        self.x.append(x.copy())
+        self.v.append(v.copy())
+        self.f.append(f.copy())
+        self.ke.append(ke)
+        self.pe.append(pe)
+        self.dc.append(dc)
+        self.dv.append(dv)
+
+
+def _energies(model: Model, u, v):
+    feat = model.features
+    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, model.d0, model.k,
+            model.n, model.walls)
+    ke = 0.5 * float(np.dot(model.mass, v * v))
+    pe = float(specialised(total_potential, args, (0, 1, 2))(*args))
+    return ke, pe
+
+
+def _net_forces(model: Model, u, c, f):
+    feat = model.features
+    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, model.d0, model.k,
+            model.n, model.walls, c, f)
+    specialised(net_forces, args, (0, 1, 2))(*args)
+
+
+def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
+             run=None) -> Result:
+    """Run a scene and return its :class:`Result`.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene (see :func:`granular_chain.load_scene`).
+    progress : bool, optional
+        Show a progress bar (default: only on a terminal, for runs longer than ~2 s).
+
+    Returns
+    -------
+    Result
+        Never contains NaN: a run whose state turns non-finite stops with
+        ``Status.NONFINITE`` at its last finite frame.
+
+    Raises
+    ------
+    SimulationError
+        The run cannot start (for example dt too large for the stiffest contact).
+    """
+    model = build_model(scene)
+    settings = scene.run
+    if settings.stepper == "event":
+        from .steppers.events import simulate_events  # the event stepper (issue 3)
+        return simulate_events(scene, model)
+    return _simulate_verlet(scene, model, progress)
+
+
+def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Result:
+    settings = scene.run
+    feat = model.features
+    N = model.count
+    T = model.shortest_period()
+    dt = settings.dt if settings.dt is not None else default_dt(model)
+    if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+        raise SimulationError(
+            f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
+            f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
+            f"use dt <= {T / 50:.3g} for accuracy")
+    t_end = settings.t_end
+    n_total = int(math.ceil(t_end / dt * (1 - 1e-12)))
+    limited = n_total > settings.max_steps
+    n_total = min(n_total, settings.max_steps)
+    out = scene.output
+    if out.every is not None:
+        every = out.every
+    elif out.dt is not None:
+        every = max(1, int(round(out.dt / dt)))
+    else:
+        every = max(1, n_total // _DEFAULT_FRAMES)
+
+    stop_mode = {"t_end": 0, "separation": 1, "rest": 2}[settings.stop]
+    stop_contact = settings.stop_contact if N > 1 else 0
+
+    u = np.zeros(N)
+    v = model.v0.copy()
+    f = np.zeros(N)
+    c = np.zeros(max(N - 1, 1))
+    _net_forces(model, u, c, f)
+    active = (c[: max(N - 1, 0)] > 0).astype(np.uint8)
+    if active.size == 0:
+        active = np.zeros(1, dtype=np.uint8)
+    h = 0.5 * dt
+    cv, E, P1, P2 = _kick_coefficients(model, h)
+    ledger = np.zeros(2)
+    counts = np.zeros(4, dtype=np.int64)
+
+    frames = _Frames()
+    ke0, pe0 = _energies(model, u, v)
+    e0 = ke0 + pe0
+    frames.record(0.0, model.x0 + u, v, f, ke0, pe0, 0.0, 0.0)
+
+    bar = _progress_bar(progress, n_total)
+    status = Status.T_END
+    message = ""
+    steps = 0
+    t_now = 0.0
+    start = time.perf_counter()
+    args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
+            int(feat.right_wall), stop_mode, u, v, f, c, active, model.d0, model.k,
+            model.n, model.walls, model.mass, model.inv_mass, model.eta,
+            model.eta_static, cv, E, P1, P2, dt, 0, stop_contact, ledger, counts]
+    kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
+    try:
+        while steps < n_total:
+            args[24] = min(every, n_total - steps)
+            taken, code = kernel(*args)
+            steps += taken
+            t_now = steps * dt
+            if bar is not None:
+                bar.update(taken)
+            if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
+                bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(v)))[0])
+                status = Status.NONFINITE
+                message = (f"non-finite state by t = {t_now:.6g} at granule {bad}: the step "
+                           f"dt = {dt:g} is likely too large for the stiffest contact "
+                           f"(period or collision time {T:.4g}); reduce run.dt")
+                break
+            if code == verlet.SEPARATED:
+                t_now = _backtrack_to_separation(model, u, v, f, ledger, stop_contact, dt, t_now)
+                status = Status.SEPARATED
+                message = (f"contact {stop_contact} opened at t = {t_now:.12g} (located "
+                           f"inside the step by a second-order backtrack)")
+            elif code == verlet.AT_REST:
+                status = Status.AT_REST
+                message = f"every granule at rest (held by static friction) at t = {t_now:.12g}"
+            ke, pe = _energies(model, u, v)
+            frames.record(t_now, model.x0 + u, v, f, ke, pe, ledger[0], ledger[1])
+            if code != verlet.RAN_CHUNK:
+                break
+        else:
+            if limited:
+                status = Status.MAX_STEPS
+                message = (f"stopped after run.max_steps = {settings.max_steps} steps at "
+                           f"t = {t_now:.6g} before t_end = {t_end:g}; raise run.max_steps "
+                           f"or run.dt")
+            else:
+                message = f"reached t_end = {t_now:.12g} after {steps} steps"
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - start
+    return _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
+
+
+def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):
+    """Move the state back from the end of the step to the moment contact i opened.
+
+    After opening, the overlap falls linearly at the relative speed to first
+    order, so the opening happened tau = -delta / (v_(i+1) - v_i) ago (clamped
+    to the step). Each granule is moved back along its acceleration at the end
+    of the step (spring, Coulomb and viscous), a second-order Taylor step, and
+    the friction work done in tau is taken off the ledger.
+    """
+    delta = model.d0[i] + u[i] - u[i + 1]
+    w = v[i + 1] - v[i]
+    tau = 0.0 if w <= 0 else min(max(-delta / w, 0.0), dt)
+    if tau == 0.0:
+        return t_now
+    s = np.sign(v)
+    acc = (f - model.eta * s - model.gamma * v) * model.inv_mass
+    acc[v == 0.0] = 0.0  # a granule at rest at the end of the step was stuck during tau
+    ledger[0] -= tau * float(np.dot(model.eta, np.abs(v)))
+    ledger[1] -= tau * float(np.dot(model.gamma, v * v))
+    u -= tau * v - 0.5 * tau * tau * acc
+    v -= tau * acc
+    _net_forces(model, u, np.zeros(max(model.count - 1, 1)), f)
+    return t_now - tau
+
+
+def _progress_bar(progress: Optional[bool], total: int):
+    if progress is False:
+        return None
+    if progress is None and not sys.stderr.isatty():
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, unit="step", unit_scale=True, mininterval=0.5, delay=2.0,
+                file=sys.stderr, leave=False)
+
+
+def _assemble(frames: _Frames, model: Model, e0, status, message, steps, wall, dt, counts):
+    energy = EnergyLedger(
+        kinetic=np.array(frames.ke), potential=np.array(frames.pe),
+        coulomb=np.array(frames.dc), viscous=np.array(frames.dv), initial=e0)
+    x = np.array(frames.x)
+    v = np.array(frames.v)
+    counts_d = dict(zip(verlet.EVENT_KINDS, (int(n) for n in counts)))
+    info = {"features": model.features.describe(), "granules": model.count,
+            "units": model.units}
+    if model.units == "physical":
+        info["scaled"] = scaled_parameters(model)
+    return Result(
+        t=np.array(frames.t), x=x, v=v, f=np.array(frames.f), energy=energy, status=status,
+        message=message, steps=steps, wall_time=wall, stepper="verlet", dt=dt,
+        t_final=float(frames.t[-1]), x_final=x[-1].copy(), v_final=v[-1].copy(),
+        event_counts=counts_d, info=info)

@@ -1,0 +1,1 @@
+"""Time steppers: velocity-Verlet (fixed dt) and event stepping."""
