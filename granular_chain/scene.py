@@ -43,12 +43,6 @@ class SceneError(ValueError):
         super().__init__(f"{where}: {problem}")
 
 
-def _finite(value: float) -> float:
-    if not math.isfinite(value):
-        raise ValueError("must be a finite number (got %r)" % value)
-    return value
-
-
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -139,10 +133,16 @@ class Run(_Strict):
     dt: Optional[Positive] = Field(
         None, description="Verlet time step; default 1/100 of the shortest contact period.")
     t_end: Positive = Field(10.0, description="Stop at this time at the latest.")
-    stop: Literal["t_end", "separation", "rest"] = Field(
+    stop: Union[Literal["t_end", "separation", "rest"], list[Literal["separation", "rest"]]] = Field(
         "t_end",
-        description="Extra stop condition: 'separation' = first opening of contact "
-        "stop_contact after it has been closed, 'rest' = every granule at rest.")
+        description="Extra stop condition(s) besides t_end: 'separation' = first opening of "
+        "contact stop_contact after it has been closed, 'rest' = every granule at rest "
+        "(exactly, held by static friction); a list stops at whichever comes first.")
+
+    @property
+    def stop_conditions(self) -> set:
+        s = self.stop
+        return set(s) if isinstance(s, list) else ({s} - {"t_end"})
     stop_contact: int = Field(0, ge=0, description="Contact index for stop: separation.")
     max_steps: int = Field(2_000_000_000, ge=1, description="Refuse to take more steps.")
     rtol: Positive = Field(1e-12, description="Relative tolerance (event stepper, n != 2).")
@@ -222,7 +222,7 @@ class Scene(_Strict):
             if wall is not None and -wall.gap >= end:
                 raise _FieldProblem(f"walls.{side}.gap",
                                     f"initial overlap {-wall.gap} is not smaller than the radius {end}")
-        if self.run.stop == "separation" and self.run.stop_contact > n - 2:
+        if "separation" in self.run.stop_conditions and self.run.stop_contact > n - 2:
             raise _FieldProblem("run.stop_contact",
                                 f"is {self.run.stop_contact} but contacts are numbered 0..{n - 2}")
         if self.output.every is not None and self.output.dt is not None:
@@ -268,31 +268,42 @@ def _submodel(annotation) -> Optional[type[BaseModel]]:
     return None
 
 
+_TYPE_TAGS = {"float", "int", "str", "bool", "list", "dict", "none"}
+
+
+def _is_tag(part) -> bool:
+    """Union-member tags pydantic puts in error locations ('constrained-float', ...)."""
+    if isinstance(part, int):
+        return False
+    return part in _TYPE_TAGS or any(ch in part for ch in "[-(")
+
+
 def _dotted(loc: tuple) -> str:
     parts = []
     for p in loc:
+        if _is_tag(p):
+            continue
         if isinstance(p, int):
             parts.append(f"[{p}]")
-        elif p in ("float", "list[float]", "int", "str", "bool", "literal['hertz']",
-                   "function-after[_finite(), float]") or "[" in str(p) and not str(p).startswith("["):
-            # pydantic adds union-member tags to locations; they are not field names
-            continue
         else:
             parts.append(("." if parts else "") + str(p))
     return "".join(parts)
 
 
 def _explain(exc: ValidationError, source: str) -> SceneError:
-    """The first validation error as one SceneError line (file, dotted field, problem)."""
+    """The most specific validation error as one SceneError line (file, field, problem)."""
     errors = exc.errors(include_url=False)
-    # Union members produce one error per member: prefer the most specific message.
-    first = errors[0]
+    # A per-item field is a union (number or list): each member reports its own
+    # error. The one with the deepest real path (an index into the list) is the
+    # one that speaks of what the user wrote.
+    first = max(errors, key=lambda e: (len(_dotted(e["loc"]).replace("[", ".[").split(".")),
+                                       -errors.index(e)))
     loc = first["loc"]
     path = _dotted(loc)
     err_type = first["type"]
     if err_type == "extra_forbidden":
         name = str(loc[-1])
-        known = _known_fields(Scene, loc)
+        known = _known_fields(Scene, tuple(p for p in loc if not _is_tag(p)))
         close = difflib.get_close_matches(name, known, n=1)
         hint = f"; did you mean '{close[0]}'?" if close else (
             f"; known fields: {', '.join(known)}" if known else "")
@@ -302,12 +313,10 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
         return SceneError(source, fp.path, fp.problem)
     if err_type == "missing":
         return SceneError(source, path, "is required but missing")
-    # For per-item unions report the scalar-branch message when both branches failed.
     msg = first["msg"]
-    given = first.get("input")
-    if err_type in ("finite_number",):
+    if err_type == "finite_number":
         msg = "must be a finite number (NaN and Inf are not allowed)"
-    return SceneError(source, path, f"{msg} (got {given!r})")
+    return SceneError(source, path, f"{msg} (got {first.get('input')!r})")
 
 
 def scene_from_dict(data: Any, source: str = "<scene>") -> Scene:

@@ -23,7 +23,7 @@ from .scene import Scene
 from .steppers import verlet
 from .units import scaled_parameters
 
-__all__ = ["simulate", "SimulationError", "default_dt"]
+__all__ = ["simulate", "SimulationError", "default_dt", "check_dt"]
 
 # Velocity Verlet on a linear contact of period T is unstable for dt > T/pi.
 _STABILITY_FRACTION = 1.0 / math.pi
@@ -41,6 +41,16 @@ def default_dt(model: Model) -> float:
     if not math.isfinite(T):
         return 1e-2
     return T / _DEFAULT_STEPS_PER_PERIOD
+
+
+def check_dt(model: Model, dt: float) -> None:
+    """Refuse a Verlet step the stiffest contact cannot take (SimulationError names run.dt)."""
+    T = model.shortest_period()
+    if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+        raise SimulationError(
+            f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
+            f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
+            f"use dt <= {T / 50:.3g} for accuracy")
 
 
 def _kick_coefficients(model: Model, h: float):
@@ -121,11 +131,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     N = model.count
     T = model.shortest_period()
     dt = settings.dt if settings.dt is not None else default_dt(model)
-    if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
-        raise SimulationError(
-            f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
-            f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
-            f"use dt <= {T / 50:.3g} for accuracy")
+    check_dt(model, dt)
     t_end = settings.t_end
     n_total = int(math.ceil(t_end / dt * (1 - 1e-12)))
     limited = n_total > settings.max_steps
@@ -138,7 +144,9 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     else:
         every = max(1, n_total // _DEFAULT_FRAMES)
 
-    stop_mode = {"t_end": 0, "separation": 1, "rest": 2}[settings.stop]
+    stops = settings.stop_conditions
+    stop_mode = (verlet.STOP_ON_SEPARATION if "separation" in stops else 0) | (
+        verlet.STOP_ON_REST if "rest" in stops else 0)
     stop_contact = settings.stop_contact if N > 1 else 0
 
     u = np.zeros(N)

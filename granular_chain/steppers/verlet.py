@@ -26,6 +26,10 @@ RAN_CHUNK = 0
 SEPARATED = 1
 AT_REST = 2
 
+# Stop-mode bits.
+STOP_ON_SEPARATION = 1
+STOP_ON_REST = 2
+
 # Indices into the event-count array.
 EV_CLOSE, EV_OPEN, EV_STOP, EV_SLIP = 0, 1, 2, 3
 EVENT_KINDS = ("contact_close", "contact_open", "stop", "slip")
@@ -69,8 +73,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
     Parameters
     ----------
     law, coulomb, viscous, left_wall, right_wall, stop_mode : int
-        Compile-time feature codes (``stop_mode``: 0 none, 1 separation of
-        ``stop_contact``, 2 all granules at rest).
+        Compile-time feature codes (``stop_mode``: bit 1 = stop at the opening
+        of ``stop_contact``, bit 2 = stop when every granule is at rest).
     u, v, f : ndarray, shape (N,)
         Displacements, velocities and net spring forces (f consistent with u on entry).
     c : ndarray, shape (N-1,)
@@ -112,7 +116,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
             u[i] += dt * v[i]
         spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f)
         kick_all(coulomb, viscous, v, f, m, inv_m, eta, eta_s, cv, E, P1, P2, h, ledger, counts)
-        if stop_mode == 1:
+        if stop_mode & STOP_ON_SEPARATION:
             watched_was = active[stop_contact]
         for i in range(N - 1):
             now = 1 if c[i] > 0.0 else 0
@@ -120,10 +124,10 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
             counts[EV_CLOSE] += now & (1 - was)
             counts[EV_OPEN] += was & (1 - now)
             active[i] = now
-        if stop_mode == 1:
+        if stop_mode & STOP_ON_SEPARATION:
             if watched_was == 1 and active[stop_contact] == 0:
                 return step + 1, SEPARATED
-        elif stop_mode == 2:
+        if stop_mode & STOP_ON_REST:
             rest = True
             for i in range(N):
                 if v[i] != 0.0:

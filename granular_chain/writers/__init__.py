@@ -1,0 +1,1 @@
+"""Writers: what a run leaves on disk. They see only a Result (and the scene as metadata)."""
