@@ -93,7 +93,8 @@ def two_granule_scene(n: float = 2.0, eta=(0.0, 0.0), gamma=(0.0, 0.0), *,
 
 def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verlet",
             dt: Optional[float] = None, *, eta_static=None, t_max: float = 1000.0,
-            rtol: Optional[float] = None, atol: Optional[float] = None) -> Collision:
+            rtol: Optional[float] = None, atol: Optional[float] = None,
+            rest_tol: Optional[float] = None) -> Collision:
     """Collide two granules as in the paper and classify the outcome.
 
     Parameters
