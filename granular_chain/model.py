@@ -18,15 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
 from .scene import Scene
 
 __all__ = ["Features", "Model", "build_model", "LAW_LINEAR", "LAW_HERTZ", "LAW_POWER"]
-
-# Contact-law codes: compile-time constants for the kernels (never strings there).
-LAW_LINEAR = 0  # n = 2: force k*delta
-LAW_HERTZ = 1  # n = 5/2: force k*delta*sqrt(delta), no pow
-LAW_POWER = 2  # any other n > 1: force k*delta**(n-1)
-
 
 @dataclass(frozen=True)
 class Features:
@@ -144,6 +139,11 @@ class Model:
 
 
 def _per(value, count: int) -> np.ndarray:
+    if isinstance(value, dict):  # sparse {index: value}, the rest zero
+        arr = np.zeros(count)
+        for i, x in value.items():
+            arr[i] = x
+        return arr
     arr = np.asarray(value if isinstance(value, list) else [value] * count, dtype=np.float64)
     return np.ascontiguousarray(arr.reshape(count))
 

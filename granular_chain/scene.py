@@ -85,7 +85,9 @@ class Granules(_Strict):
         0.0,
         description="Gap between neighbours i and i+1 (one value or N-1 values): "
         "0 = just touching, negative = initial overlap (precompression).")
-    velocity: PerItem = Field(0.0, description="Initial velocity v_i (one value or N values).")
+    velocity: Union[Finite, list[Finite], dict[int, Finite]] = Field(
+        0.0, description="Initial velocity v_i: one value, N values, or a mapping "
+        "{index: value} with every other granule at rest (e.g. {0: 1.0} for a striker).")
     friction: Friction = Field(default_factory=Friction)
     material: Optional[Material] = Field(
         None, description="Elastic constants, used when contacts.stiffness is 'hertz'.")
@@ -124,6 +126,15 @@ class Output(_Strict):
     dt: Optional[Positive] = Field(
         None, description="Record a frame every dt of simulated time (rounded to whole steps).")
     trajectory: bool = Field(True, description="Write trajectory.h5 (t, x, v, energy ledger).")
+    vtk: bool = Field(
+        False, description="Write a VTK time series for ParaView/pyvista: run.pvd indexing "
+        "vtk/frame_NNNNNN.vtp (granules as points, contacts as line cells).")
+    csv: bool = Field(
+        False, description="Write energy.csv (energy ledger per frame) and, when the stepper "
+        "logged events, events.csv.")
+    plots: bool = Field(
+        False, description="Write PNG plots into plots/ (space-time velocity diagram, energy "
+        "ledger, granule velocities, a rendered frame).")
 
 
 class Run(_Strict):
@@ -183,6 +194,12 @@ class Scene(_Strict):
             "contacts.exponent": self.contacts.exponent,
             "contacts.stiffness": self.contacts.stiffness,
         }
+        vel = self.granules.velocity
+        if isinstance(vel, dict):
+            for i in vel:
+                if not 0 <= i < n:
+                    raise _FieldProblem(f"granules.velocity[{i}]",
+                                        f"granule index out of range 0..{n - 1}")
         for path, value in per_granule.items():
             if isinstance(value, list) and len(value) != n:
                 raise _FieldProblem(path, f"has {len(value)} values but granules.count is {n}")
