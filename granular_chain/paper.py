@@ -1285,7 +1285,9 @@ def _homogeneous_horizon(modes, gamma, z):
     keep = [k for k in range(3) if abs(c[k]) > scale * mpmath.mpf(10) ** (-(mpmath.mp.dps - 8))]
     kd = max(keep, key=lambda k: mpmath.re(lam[k]))
     lead = mpmath.re(lam[kd])
-    if abs(mpmath.im(lam[kd])) > 0 or mpmath.re(c[kd]) < 0:
+    tiny = mpmath.mpf(10) ** (-(mpmath.mp.dps - 8))
+    # mpmath.eig returns real eigenvalues with ~1e-40 imaginary noise
+    if abs(mpmath.im(lam[kd])) > tiny * (1 + abs(lam[kd])) or mpmath.re(c[kd]) < 0:
         return mpmath.inf  # oscillating or negative tail: separation is certain
     others = [k for k in keep if mpmath.re(lam[k]) < lead - mpmath.mpf(10) ** (-20)]
     if not others:

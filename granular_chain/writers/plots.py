@@ -1,0 +1,260 @@
+"""PNG plots of a run: space-time diagram, energy ledger, granule velocities, a rendered frame.
+
+``granular-chain plot RUN_DIR`` (or ``run --plots``) writes into ``RUN_DIR/plots/``:
+
+``spacetime.png``
+    Granule index (horizontal) against time (vertical), colour = velocity on a
+    diverging map centred at 0: a pulse is a bright diagonal band whose slope is
+    its speed, backscatter shows as the opposite colour.
+``energy.png``
+    Kinetic, elastic, dissipated (Coulomb, viscous) and their sum against time, and
+    below it the balance error relative to the initial energy.
+``velocities.png``
+    v_i(t) of chosen granules (default: first, quarter, middle, three quarters, last).
+``frame.png``
+    One frame rendered by pyvista off-screen: granules as spheres coloured by velocity,
+    closed contacts as tubes coloured by force. Needs an OpenGL that works without a
+    display: the PyPI vtk wheels (>= 9.4) pick EGL when there is no X server (system
+    libEGL + Mesa, e.g. Debian ``libegl1 libegl-mesa0 libgl1-mesa-dri``). If rendering
+    is impossible the other plots are still written and a message says why.
+
+Matplotlib runs on the Agg backend (no display needed).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
+__all__ = ["write_plots", "plot_spacetime", "plot_energy", "plot_velocities", "render_frame",
+           "default_granules", "PLOT_DIR"]
+
+PLOT_DIR = "plots"
+# Cells drawn in the space-time diagram at most; larger runs are strided (the
+# picture has ~1000 pixels a side, so more cells only cost time).
+_MAX_CELLS = 2_000_000
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _save(fig, path: Path) -> Path:
+    # Written beside and renamed, so a PNG is never seen half written.
+    tmp = path.with_name(f".{path.name}.tmp")
+    fig.savefig(tmp, dpi=120, format="png")
+    os.replace(tmp, path)
+    return path
+
+
+def _units(scene) -> tuple[str, str, str]:
+    if scene is not None and scene.units == "physical":
+        return "t [s]", "v [m/s]", "energy [J]"
+    return "t (scaled)", "v (scaled)", "energy (scaled)"
+
+
+def default_granules(count: int) -> list[int]:
+    """First, quarter, middle, three-quarter and last granule (without repeats)."""
+    picks = [0, count // 4, count // 2, (3 * count) // 4, count - 1]
+    return sorted(set(i for i in picks if 0 <= i < count))
+
+
+def plot_spacetime(result, path, scene=None) -> Path:
+    """Space-time diagram of the velocity: index against time, colour = v."""
+    plt = _pyplot()
+    from matplotlib.colors import TwoSlopeNorm
+
+    t, v = result.t, result.v
+    F, N = v.shape
+    stride_t = max(1, int(np.ceil(F / max(1, _MAX_CELLS // max(N, 1)))))
+    stride_n = max(1, int(np.ceil(N / 2000)))
+    rows = np.arange(0, F, stride_t)
+    cols = np.arange(0, N, stride_n)
+    vv = v[np.ix_(rows, cols)]
+    vmax = float(np.max(np.abs(vv))) or 1.0
+    tlab, vlab, _ = _units(scene)
+    fig, ax = plt.subplots(figsize=(7, 6), constrained_layout=True)
+    # 'nearest' puts each frame at its own time, so unequal frame spacing (a short
+    # last chunk, a located separation) is drawn where it happened.
+    mesh = ax.pcolormesh(cols, t[rows], vv, shading="nearest", cmap="RdBu_r",
+                         norm=TwoSlopeNorm(0.0, -vmax, vmax), rasterized=True)
+    fig.colorbar(mesh, ax=ax, label=f"velocity {vlab}")
+    ax.set_xlabel("granule index i")
+    ax.set_ylabel(tlab)
+    name = scene.name if scene is not None else "run"
+    ax.set_title(f"{name}: velocity of every granule (N = {N}, {F} frames)")
+    _save(fig, Path(path))
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_energy(result, path, scene=None) -> Path:
+    """Energy ledger against time and the relative balance error below it."""
+    plt = _pyplot()
+    led, t = result.energy, result.t
+    tlab, _, elab = _units(scene)
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, constrained_layout=True,
+                                 gridspec_kw={"height_ratios": [3, 1]})
+    ax.plot(t, led.kinetic, label="kinetic")
+    ax.plot(t, led.potential, label="elastic (contacts)")
+    ax.plot(t, led.coulomb, label="dissipated, Coulomb")
+    ax.plot(t, led.viscous, label="dissipated, viscous")
+    ax.plot(t, led.kinetic + led.potential + led.coulomb + led.viscous, "k--", lw=1,
+            label="sum")
+    ax.axhline(led.initial, color="0.6", lw=0.8, zorder=0)
+    ax.set_ylabel(elab)
+    ax.legend(loc="best", fontsize="small")
+    ax.set_title("energy ledger")
+    scale = led.initial if led.initial > 0 else 1.0
+    bx.plot(t, led.balance / scale, color="C3")
+    bx.axhline(0.0, color="0.6", lw=0.8)
+    bx.set_ylabel("balance / initial")
+    bx.set_xlabel(tlab)
+    bx.ticklabel_format(axis="y", style="sci", scilimits=(-2, 2))
+    _save(fig, Path(path))
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_velocities(result, path, scene=None, granules: Optional[Sequence[int]] = None) -> Path:
+    """Velocity against time of the chosen granules."""
+    plt = _pyplot()
+    N = result.v.shape[1]
+    granules = default_granules(N) if granules is None else list(granules)
+    bad = [i for i in granules if not 0 <= i < N]
+    if bad:
+        raise ValueError(f"granule indices {bad} are outside 0..{N - 1}")
+    tlab, vlab, _ = _units(scene)
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    for i in granules:
+        ax.plot(result.t, result.v[:, i], lw=1.2, label=f"granule {i}")
+    ax.axhline(0.0, color="0.6", lw=0.8, zorder=0)
+    ax.set_xlabel(tlab)
+    ax.set_ylabel(vlab)
+    ax.legend(loc="best", fontsize="small")
+    ax.set_title("velocities of chosen granules")
+    _save(fig, Path(path))
+    plt.close(fig)
+    return Path(path)
+
+
+def _prefer_egl() -> None:
+    # Without a display the wheel's default X window fails first and logs a warning
+    # before falling back to EGL; asking for EGL directly is quiet. A user's own
+    # choice (the variable already set) wins.
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+
+def render_frame(result, path, scene, time: Optional[float] = None,
+                 window_size=(1600, 420)) -> Path:
+    """Render one frame with pyvista off-screen and save it as a PNG.
+
+    Parameters
+    ----------
+    time : float, optional
+        Render the frame closest to this time (default: the middle of the run).
+
+    Raises
+    ------
+    Exception
+        Whatever VTK raises when no off-screen OpenGL context can be made
+        (:func:`write_plots` turns that into a message).
+    """
+    _prefer_egl()
+    import pyvista as pv
+
+    from ..model import build_model
+    from .vtk import contact_overlap_force
+
+    pv.OFF_SCREEN = True
+    model = build_model(scene)
+    t = result.t
+    target = 0.5 * (t[0] + t[-1]) if time is None else float(time)
+    i = int(np.argmin(np.abs(t - target)))
+    x, v = result.x[i], result.v[i]
+    pts = np.zeros((x.size, 3))
+    pts[:, 0] = x
+    cloud = pv.PolyData(pts)
+    cloud.point_data["diameter"] = 2.0 * model.radius
+    cloud.point_data["velocity"] = v
+    spheres = cloud.glyph(geom=pv.Sphere(radius=0.5, theta_resolution=24, phi_resolution=16),
+                          scale="diameter", orient=False)
+    vmax = float(np.max(np.abs(result.v))) or 1.0
+    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    pl.set_background("white")
+    bar = {"color": "black", "vertical": False, "position_y": 0.06, "height": 0.1,
+           "width": 0.4, "title_font_size": 14, "label_font_size": 12, "n_labels": 5}
+    pl.add_mesh(spheres, scalars="velocity", cmap="RdBu_r", clim=(-vmax, vmax),
+                smooth_shading=True,
+                scalar_bar_args={**bar, "title": "velocity", "position_x": 0.55})
+    if x.size > 1:
+        overlap, force = contact_overlap_force(x, model.radius, model.k, model.n)
+        closed = np.flatnonzero(overlap > 0.0)
+        if closed.size:
+            lines = np.column_stack([np.full(closed.size, 2), closed, closed + 1]).ravel()
+            contacts = pv.PolyData(pts.copy(), lines=lines)
+            contacts.cell_data["force"] = force[closed]
+            # Tubes lifted in front of the spheres (+z) so the contacts stay visible.
+            contacts.points[:, 2] = 1.05 * float(np.max(model.radius))
+            tube = contacts.tube(radius=0.08 * float(np.min(model.radius)))
+            pl.add_mesh(tube, scalars="force", cmap="viridis",
+                        clim=(0.0, float(np.max(force[closed])) or 1.0),
+                        scalar_bar_args={**bar, "title": "contact force (closed contacts)",
+                                         "position_x": 0.05})
+    pl.add_text(f"t = {t[i]:.4g}   (frame {i} of {t.size - 1})", position="upper_edge",
+                font_size=11, color="black")
+    # Parallel projection looking down -z; the chain fills the width and sits above
+    # the colour bars (parallel_scale is half the visible height in world units).
+    span = float(x.max() - x.min() + 4.0 * np.max(model.radius))
+    half_height = 0.5 * span * window_size[1] / window_size[0]
+    xc = 0.5 * float(x.max() + x.min())
+    yc = -0.25 * half_height
+    pl.enable_parallel_projection()
+    pl.camera.focal_point = (xc, yc, 0.0)
+    pl.camera.position = (xc, yc, 10.0 * span)
+    pl.camera.up = (0.0, 1.0, 0.0)
+    pl.camera.parallel_scale = half_height
+    pl.camera.clipping_range = (1.0, 20.0 * span)
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    try:
+        pl.screenshot(str(tmp))
+    finally:
+        pl.close()
+    os.replace(tmp, path)
+    return path
+
+
+def write_plots(result, folder, scene=None, *, granules: Optional[Sequence[int]] = None,
+                frame_time: Optional[float] = None, render: bool = True,
+                subdir: str = PLOT_DIR, log=None) -> list[Path]:
+    """Write the PNGs into ``folder/plots/`` (``folder/subdir``); return the paths written.
+
+    The rendered frame needs the scene (radii, contact laws) and a working off-screen
+    OpenGL; when either is missing it is skipped with a one-line message on ``log``.
+    """
+    log = sys.stderr if log is None else log
+    out = Path(folder) / subdir if subdir else Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [plot_spacetime(result, out / "spacetime.png", scene),
+             plot_energy(result, out / "energy.png", scene),
+             plot_velocities(result, out / "velocities.png", scene, granules)]
+    if render:
+        if scene is None:
+            print("granular-chain: frame.png skipped: no scene stored with the run", file=log)
+        else:
+            try:
+                paths.append(render_frame(result, out / "frame.png", scene, frame_time))
+            except Exception as exc:  # noqa: BLE001 - any VTK/OpenGL failure means "cannot render"
+                print(f"granular-chain: frame.png skipped: off-screen rendering failed "
+                      f"({exc.__class__.__name__}: {exc}); the other plots are written",
+                      file=log)
+    return paths

@@ -1,0 +1,244 @@
+"""VTK time series: one ``.vtp`` per output frame and a ``.pvd`` index with the physical times.
+
+ParaView (File > Open ``run.pvd``) and pyvista open the run as one time series::
+
+    import pyvista as pv
+    reader = pv.get_reader("outputs/chain_friction/run.pvd")
+    reader.time_values                       # the frame times, exactly Result.t
+    reader.set_active_time_value(reader.time_values[10])
+    frame = reader.read()[0]                 # a pyvista.PolyData
+    frame.point_data["velocity"]
+
+Layout of one frame (``vtk/frame_NNNNNN.vtp``, VTK XML PolyData, binary, zlib):
+
+points, shape (N, 3)
+    Granule centres ``(x_i, 0, 0)``.
+point data, shape (N,)
+    ``radius``, ``mass``, ``velocity`` (signed, along the chain), ``net_force`` (the net
+    contact force on the granule from its neighbours and walls, i.e. ``Result.f``;
+    friction is not included because a stuck granule's static friction force is not
+    a state variable), ``friction_state`` (int8: 1 stuck = at rest exactly with
+    Coulomb friction present, 0 sliding/moving, -1 no Coulomb friction on that granule).
+line cells, N - 1
+    Every neighbour pair ``(i, i+1)``, open or closed, with cell data ``overlap``
+    ``delta_i = r_i + r_(i+1) - (x_(i+1) - x_i)`` (negative = gap), ``force``
+    ``k_i max(delta_i, 0)^(n_i - 1)`` (compressive, >= 0) and ``in_contact`` (uint8).
+    All pairs are kept, not only the closed ones, so every frame has the same
+    topology: ParaView's temporal filters (Plot Data Over Time on a contact) then
+    follow one contact through the run, and Threshold on ``in_contact`` shows only the
+    closed ones. Wall contacts are not drawn (they have no second point).
+field data
+    ``TimeValue`` (ParaView's per-file time), ``frame`` (index), ``friction_state_legend``.
+
+What is written by hand: only the ``.pvd`` collection index (a ten-line XML file). VTK
+has no writer for it outside ParaView, and meshio does not write it either (meshio's
+time series are XDMF). The frames themselves are written by VTK's
+``vtkXMLPolyDataWriter`` from pyvista meshes.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Optional
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+__all__ = ["contact_overlap_force", "friction_state", "VTKSeriesWriter", "write_vtk",
+           "FRAME_DIR", "PVD_NAME"]
+
+FRAME_DIR = "vtk"
+PVD_NAME = "run.pvd"
+FRICTION_LEGEND = "1 stuck (v == 0 with Coulomb friction), 0 sliding or moving, " \
+                  "-1 no Coulomb friction on this granule"
+
+
+def contact_overlap_force(x, radius, k, n):
+    """Overlap and compressive force of each neighbour contact.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,)
+        Centre positions.
+    radius : ndarray, shape (N,)
+        Radii r_i.
+    k, n : ndarray, shape (N-1,)
+        Force coefficient and potential exponent of each contact.
+
+    Returns
+    -------
+    overlap : ndarray, shape (N-1,)
+        ``delta_i = r_i + r_(i+1) - (x_(i+1) - x_i)``; negative is a gap.
+    force : ndarray, shape (N-1,)
+        ``k_i * max(delta_i, 0)**(n_i - 1)`` (one-sided power law, paper eq. (1)).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    overlap = radius[:-1] + radius[1:] - (x[1:] - x[:-1])
+    force = k * np.maximum(overlap, 0.0) ** (n - 1.0)
+    return overlap, force
+
+
+def friction_state(v, eta_static):
+    """int8 per granule: 1 stuck, 0 sliding or moving, -1 no Coulomb friction.
+
+    The Verlet kicks set a stopped granule's velocity to exactly 0.0 and keep it
+    there while the net force stays below the static threshold, so ``v == 0`` is the
+    stuck state itself, not a tolerance.
+    """
+    state = np.where(np.asarray(v) == 0.0, 1, 0).astype(np.int8)
+    state[np.asarray(eta_static) <= 0.0] = -1
+    return state
+
+
+class VTKSeriesWriter:
+    """Write a VTK time series frame by frame; the ``.pvd`` index is written on a clean exit.
+
+    Used as a context manager (the shape of meshio's XDMF time-series writer):
+    topology and constant point data are set once, each :meth:`write_frame` fills
+    the same buffers and writes one ``.vtp``, and the index is written only when the
+    ``with`` block ends without an exception, so a series cut short has no index.
+
+    Parameters
+    ----------
+    folder : path
+        Output folder; frames go to ``folder/vtk/``, the index to ``folder/run.pvd``.
+    radius, mass : ndarray, shape (N,)
+    k, n : ndarray, shape (N-1,)
+        Contact force coefficients and exponents (from :func:`granular_chain.model.build_model`).
+    eta_static : ndarray, shape (N,)
+        Static friction thresholds (0 = no Coulomb friction on that granule).
+    compression : {"zlib", "lz4", "lzma", None}
+        Compression of the binary appended data.
+    """
+
+    def __init__(self, folder, radius, mass, k, n, eta_static, *, compression="zlib"):
+        import pyvista as pv  # heavy: imported only when a VTK series is asked for
+        from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+        self.folder = Path(folder)
+        (self.folder / FRAME_DIR).mkdir(parents=True, exist_ok=True)
+        self.radius = np.ascontiguousarray(radius, dtype=np.float64)
+        self.k = np.asarray(k, dtype=np.float64)
+        self.n = np.asarray(n, dtype=np.float64)
+        self.eta_static = np.asarray(eta_static, dtype=np.float64)
+        N = self.radius.size
+        self._points = np.zeros((N, 3))
+        lines = np.empty((max(N - 1, 0), 3), dtype=np.int64)
+        lines[:, 0] = 2
+        lines[:, 1] = np.arange(N - 1)
+        lines[:, 2] = np.arange(1, N)
+        mesh = pv.PolyData(self._points, lines=lines.ravel() if N > 1 else None)
+        # pyvista keeps numpy arrays it is given by reference: the buffers below are
+        # filled in place for each frame and the mesh marked modified, no rebuild.
+        self._mesh = mesh
+        self._points = mesh.points  # the VTK-backed view
+        mesh.point_data["radius"] = self.radius
+        mesh.point_data["mass"] = np.ascontiguousarray(mass, dtype=np.float64)
+        self._v = np.zeros(N)
+        self._f = np.zeros(N)
+        self._state = np.zeros(N, dtype=np.int8)
+        mesh.point_data["velocity"] = self._v
+        mesh.point_data["net_force"] = self._f
+        mesh.point_data["friction_state"] = self._state
+        self._v = mesh.point_data["velocity"]
+        self._f = mesh.point_data["net_force"]
+        self._state = mesh.point_data["friction_state"]
+        if N > 1:
+            mesh.cell_data["overlap"] = np.zeros(N - 1)
+            mesh.cell_data["force"] = np.zeros(N - 1)
+            mesh.cell_data["in_contact"] = np.zeros(N - 1, dtype=np.uint8)
+        mesh.field_data["friction_state_legend"] = [FRICTION_LEGEND]
+        self._writer = vtkXMLPolyDataWriter()
+        self._writer.SetInputData(mesh)
+        self._writer.SetDataModeToAppended()
+        self._writer.EncodeAppendedDataOff()  # raw binary, not base64
+        if compression is None:
+            self._writer.SetCompressorTypeToNone()
+        else:
+            setter = {"zlib": self._writer.SetCompressorTypeToZLib,
+                      "lz4": self._writer.SetCompressorTypeToLZ4,
+                      "lzma": self._writer.SetCompressorTypeToLZMA}[compression]
+            setter()
+        self._entries: list[tuple[float, str]] = []
+
+    @property
+    def mesh(self):
+        """The frame mesh as last written (a pyvista.PolyData sharing the buffers)."""
+        return self._mesh
+
+    def write_frame(self, t: float, x, v, f) -> Path:
+        """Write one frame at time ``t`` with positions ``x``, velocities ``v``, net forces ``f``."""
+        mesh = self._mesh
+        self._points[:, 0] = x
+        self._v[:] = v
+        self._f[:] = f
+        self._state[:] = friction_state(v, self.eta_static)
+        if self.radius.size > 1:
+            overlap, force = contact_overlap_force(x, self.radius, self.k, self.n)
+            mesh.cell_data["overlap"][:] = overlap
+            mesh.cell_data["force"][:] = force
+            mesh.cell_data["in_contact"][:] = overlap > 0.0
+        index = len(self._entries)
+        mesh.field_data["TimeValue"] = np.array([t], dtype=np.float64)
+        mesh.field_data["frame"] = np.array([index], dtype=np.int64)
+        mesh.Modified()
+        name = f"{FRAME_DIR}/frame_{index:06d}.vtp"
+        self._writer.SetFileName(str(self.folder / name))
+        if self._writer.Write() != 1:
+            raise OSError(f"VTK could not write {self.folder / name}")
+        self._entries.append((float(t), name))
+        return self.folder / name
+
+    def write_index(self) -> Path:
+        """Write ``run.pvd`` (by hand: no library writes ParaView's collection format)."""
+        lines = ['<?xml version="1.0"?>',
+                 '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+                 "  <Collection>"]
+        for t, name in self._entries:
+            # repr() is the shortest string that parses back to the same double,
+            # so a reader's time values equal Result.t exactly.
+            lines.append(f'    <DataSet timestep="{t!r}" group="" part="0" '
+                         f"file={quoteattr(name)}/>")
+        lines += ["  </Collection>", "</VTKFile>", ""]
+        path = self.folder / PVD_NAME
+        tmp = path.with_suffix(".pvd.tmp")
+        tmp.write_text("\n".join(lines), encoding="utf-8")
+        os.replace(tmp, path)
+        return path
+
+    def __enter__(self) -> "VTKSeriesWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.write_index()
+
+
+def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
+              progress: bool = False) -> Path:
+    """Write every frame of ``result`` as a VTK time series; return the ``.pvd`` path.
+
+    Parameters
+    ----------
+    result : Result
+    folder : path
+        Output folder (``run.pvd`` and ``vtk/`` are created in it).
+    scene : Scene
+        For radii, masses and contact laws (through :func:`granular_chain.model.build_model`).
+    compression : {"zlib", "lz4", "lzma", None}
+    progress : bool
+        Show a bar of frames written (tqdm).
+    """
+    from ..model import build_model
+
+    model = build_model(scene)
+    frames = range(result.t.size)
+    if progress:
+        from tqdm import tqdm
+        frames = tqdm(frames, desc="writing VTK", unit="frame", leave=False, delay=1.0)
+    with VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
+                         model.eta_static, compression=compression) as series:
+        for i in frames:
+            series.write_frame(float(result.t[i]), result.x[i], result.v[i], result.f[i])
+    return Path(folder) / PVD_NAME
