@@ -114,28 +114,29 @@ class Model:
         """
         vmax = float(np.max(np.abs(self.v0))) if self.count else 0.0
         vrel = max(vmax, 1e-300)
-        best = math.inf
-        pairs = []
-        for i in range(self.count - 1):
-            mu = self.mass[i] * self.mass[i + 1] / (self.mass[i] + self.mass[i + 1])
-            pairs.append((mu, self.k[i], self.n[i], self.d0[i]))
+        m = self.mass
+        mu = m[:-1] * m[1:] / (m[:-1] + m[1:])
+        k, n, d0 = self.k, self.n, self.d0
         w = self.walls
         if self.features.left_wall:
-            pairs.append((self.mass[0], w[1], w[2], w[0]))
+            mu, k, n, d0 = (np.append(a, b) for a, b in
+                            ((mu, m[0]), (k, w[1]), (n, w[2]), (d0, w[0])))
         if self.features.right_wall:
-            pairs.append((self.mass[-1], w[4], w[5], w[3]))
-        for mu, k, n, d0 in pairs:
-            if n == 2.0:
-                best = min(best, 2 * math.pi * math.sqrt(mu / k))
-            else:
-                # Time scale of a collision at speed vrel (Appendix A's B), with
-                # the local stiffness of a precompressed contact if that is larger.
-                b = (mu * vrel * vrel / k) ** (1.0 / n) / vrel
-                if d0 > 0:
-                    k_local = k * (n - 1) * d0 ** (n - 2)
-                    b = min(b, 2 * math.pi * math.sqrt(mu / k_local))
-                best = min(best, 3.2 * b)
-        return best
+            mu, k, n, d0 = (np.append(a, b) for a, b in
+                            ((mu, m[-1]), (k, w[4]), (n, w[5]), (d0, w[3])))
+        if mu.size == 0:
+            return math.inf
+        linear = n == 2.0
+        # Linear contacts: the period 2 pi sqrt(mu/k).
+        periods = np.where(linear, 2 * math.pi * np.sqrt(mu / k), np.inf)
+        # Other n: 3.2 times the collision time scale B of Appendix A at the
+        # largest speed, or the small-oscillation period of a precompressed contact.
+        with np.errstate(divide="ignore", invalid="ignore"):
+            b = (mu * vrel * vrel / k) ** (1.0 / n) / vrel
+            k_local = k * (n - 1) * np.where(d0 > 0, d0, 1.0) ** (n - 2)
+            b = np.where(d0 > 0, np.minimum(b, 2 * math.pi * np.sqrt(mu / k_local)), b)
+        periods = np.where(linear, periods, 3.2 * b)
+        return float(np.min(periods))
 
 
 def _per(value, count: int) -> np.ndarray:
@@ -148,7 +149,7 @@ def _per(value, count: int) -> np.ndarray:
     return np.ascontiguousarray(arr.reshape(count))
 
 
-def hertz_stiffness(young_a, poisson_a, young_b, poisson_b, r_a, r_b) -> float:
+def hertz_stiffness(young_a, poisson_a, young_b, poisson_b, r_a, r_b):
     """Hertz force coefficient of two spheres: F = k delta^(3/2), k = (4/3) E* sqrt(R*).
 
     E* = 1 / ((1-nu_a^2)/E_a + (1-nu_b^2)/E_b), R* = r_a r_b / (r_a + r_b).
@@ -157,7 +158,7 @@ def hertz_stiffness(young_a, poisson_a, young_b, poisson_b, r_a, r_b) -> float:
     """
     e_star = 1.0 / ((1 - poisson_a ** 2) / young_a + (1 - poisson_b ** 2) / young_b)
     r_star = r_a * r_b / (r_a + r_b)
-    return 4.0 / 3.0 * e_star * math.sqrt(r_star)
+    return 4.0 / 3.0 * e_star * np.sqrt(r_star)
 
 
 def build_model(scene: Scene) -> Model:
@@ -170,16 +171,14 @@ def build_model(scene: Scene) -> Model:
     gaps = _per(g.gap, N - 1) if N > 1 else np.zeros(0)
     x0 = np.empty(N)
     x0[0] = radius[0]
-    for i in range(N - 1):
-        x0[i + 1] = x0[i] + radius[i] + radius[i + 1] + gaps[i]
+    x0[1:] = radius[0] + np.cumsum(radius[:-1] + radius[1:] + gaps)
     d0 = np.ascontiguousarray(-gaps)
     n_exp = _per(scene.contacts.exponent, N - 1) if N > 1 else np.zeros(0)
     if scene.contacts.stiffness == "hertz":
         mat = g.material
         E = _per(mat.young, N)
         nu = _per(mat.poisson, N)
-        k = np.array([hertz_stiffness(E[i], nu[i], E[i + 1], nu[i + 1], radius[i], radius[i + 1])
-                      for i in range(N - 1)], dtype=np.float64)
+        k = hertz_stiffness(E[:-1], nu[:-1], E[1:], nu[1:], radius[:-1], radius[1:])
     else:
         k = _per(scene.contacts.stiffness, N - 1) if N > 1 else np.zeros(0)
     walls = np.zeros(6)

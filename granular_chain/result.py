@@ -25,6 +25,7 @@ class Status(enum.IntEnum):
     NONFINITE = -2  #: NaN or Inf appeared in the state
     MAX_EVENTS = -3  #: event stepper: more than run.max_events events
     ZENO = -4  #: event stepper: events accumulate at a finite time
+    UNSTABLE = -5  #: the energy ledger stopped balancing (error above the initial energy)
 
     @property
     def success(self) -> bool:

@@ -156,6 +156,10 @@ class Run(_Strict):
         return set(s) if isinstance(s, list) else ({s} - {"t_end"})
     stop_contact: int = Field(0, ge=0, description="Contact index for stop: separation.")
     max_steps: int = Field(2_000_000_000, ge=1, description="Refuse to take more steps.")
+    check_dt: bool = Field(
+        True, description="Refuse a Verlet dt above the stability limit of the stiffest "
+        "contact (turn off only to study instability: the run then stops at the first "
+        "non-finite state with status nonfinite).")
     rtol: Positive = Field(1e-12, description="Relative tolerance (event stepper, n != 2).")
     atol: Positive = Field(1e-14, description="Absolute tolerance (event stepper, n != 2).")
     max_events: int = Field(1_000_000, ge=1, description="Event stepper: most events.")

@@ -162,3 +162,12 @@ def coulomb_kick(viscous, v, F, eta, eta_s, m, inv_m, c, E, P1, P2, h):
         disp2 = 0.5 * a2 * rem * rem
         w_c2 = -eta * s2 * disp2
     return v2, w_c + w_c2, w_v, code | SLIPPED
+
+
+@numba.njit(cache=True)
+def kick_tables(c, h, E, P1, P2):
+    """Per-granule kick coefficients for a kick of duration h: exp(-c h), phi1, phi2."""
+    for i in range(c.size):
+        E[i] = math.exp(-c[i] * h)
+        P1[i] = phi1(c[i], h)
+        P2[i] = phi2(c[i], h)

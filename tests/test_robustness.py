@@ -1,0 +1,137 @@
+"""Hard cases: a correct result or a clear error, never a silent NaN or an endless loop.
+
+Each case states the outcome it must reach; docs/robustness.md tabulates them.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import granular_chain as gc
+from granular_chain.simulate import SimulationError
+from granular_chain.two_granules import collide
+
+
+def scene(**parts):
+    base = {"name": "hard", "granules": {"count": 2, "velocity": [1.0, 0.0]}}
+    base.update(parts)
+    return gc.scene_from_dict(base)
+
+
+@pytest.mark.parametrize("ratio", [1e-6, 1e6])
+def test_mass_ratio_between_neighbours(ratio):
+    # Linear contact: the collision is exactly elastic, outcome by momentum and
+    # energy: v1' = (m1-m2)/(m1+m2), v2' = 2 m1/(m1+m2). The default dt follows
+    # the reduced mass.
+    s = scene(granules={"count": 2, "mass": [1.0, ratio], "velocity": [1.0, 0.0]},
+              run={"stop": "separation", "t_end": 1e4})
+    r = gc.simulate(s)
+    assert r.status == gc.Status.SEPARATED
+    m1, m2 = 1.0, ratio
+    np.testing.assert_allclose(r.v_final, [(m1 - m2) / (m1 + m2), 2 * m1 / (m1 + m2)],
+                               rtol=1e-3, atol=1e-9)
+    assert r.energy.balance_error < 1e-3
+
+
+def test_stiffness_ratio_between_contacts():
+    s = scene(granules={"count": 3, "velocity": {0: 1.0}},
+              contacts={"stiffness": [1.0, 1e6]}, run={"t_end": 20.0})
+    r = gc.simulate(s)
+    assert r.success and r.dt <= 2 * math.pi * math.sqrt(0.5 / 1e6) / 100
+    assert r.energy.balance_error < 1e-4
+
+
+@pytest.mark.parametrize("eta,outcome", [
+    (0.0, "propagation_only"), (1e-12, "propagation_only"), (1e-3, "backscatter_and_propagation"),
+    (1e6, "stuck")])
+def test_friction_zero_tiny_huge(eta, outcome):
+    # Verlet resolves velocities to ~dt^2 = 1e-6 here: a backscatter of ~1e-12
+    # is below that and is named propagation_only (the event stepper, exact,
+    # names it backscatter_and_propagation: tests/test_events.py).
+    c = collide(2, (eta, eta), dt=1e-3)
+    assert c.outcome.name == outcome
+    if eta == 1e6:
+        assert c.t_separation == math.inf and c.v1 == 0.0 and c.v2 == 0.0
+
+
+def test_huge_viscous_damping_is_stable():
+    # gamma dt = 10 >> 2: explicit damping would explode; the exact exponential does not.
+    c = collide(2, gamma=(1e4, 1e4), dt=1e-3, t_max=10.0)
+    assert c.outcome.name == "no_separation"
+    r = c.result
+    assert np.all(np.isfinite(r.v)) and abs(c.v1) < 1e-3
+    assert r.energy.balance_error < 1e-6
+
+
+@pytest.mark.parametrize("g", [math.sqrt(8.0), 3.0, 10.0])
+def test_overdamped_collision_never_separates_and_ends(g):
+    c = collide(2, gamma=(g, g), dt=1e-2, t_max=200.0)
+    assert c.outcome.name == "no_separation" and c.t_separation == math.inf
+    assert c.result.t_final == pytest.approx(200.0)
+
+
+def test_dt_too_large_is_refused_with_the_limit():
+    with pytest.raises(SimulationError, match=r"run.dt: 2 is too large .* unstable above 1.414"):
+        gc.simulate(scene(run={"dt": 2.0}))
+
+
+def test_unchecked_large_dt_stops_with_a_status_not_nan():
+    r = gc.simulate(scene(granules={"count": 5, "velocity": {0: 1.0}},
+                          run={"dt": 3.0, "t_end": 1000.0, "check_dt": False}))
+    assert r.status in (gc.Status.UNSTABLE, gc.Status.NONFINITE) and not r.success
+    assert "reduce run.dt" in r.message
+    assert np.all(np.isfinite(r.x_final)) and np.all(np.isfinite(r.v))
+
+
+def test_precompressed_chain_with_large_overlaps():
+    # Overlaps of 0.4 radii: the default dt uses the local stiffness of the
+    # precompressed contacts; energy balances, granules stay ordered.
+    s = scene(granules={"count": 10, "gap": -0.2, "velocity": {0: 0.1}},
+              contacts={"exponent": 2.5}, walls={"left": {"gap": -0.2, "exponent": 2.5},
+                                                 "right": {"gap": -0.2, "exponent": 2.5}},
+              run={"t_end": 50.0})
+    r = gc.simulate(s)
+    assert r.success and r.energy.balance_error < 1e-5
+    assert np.all(np.diff(r.x, axis=1) > 0)
+
+
+@pytest.mark.parametrize("v0", [1e-8, 1e3])
+def test_extreme_impact_speeds(v0):
+    # Hertz: the contact time scales as v^(-1/5); velocities are exchanged.
+    s = scene(granules={"count": 2, "velocity": [v0, 0.0]}, contacts={"exponent": 2.5},
+              run={"stop": "separation", "t_end": 1e6})
+    r = gc.simulate(s)
+    assert r.status == gc.Status.SEPARATED
+    # default dt = 1/200 of the collision time: velocity errors ~ 6e-8 (O(dt^2))
+    np.testing.assert_allclose(r.v_final / v0, [0.0, 1.0], atol=2e-7)
+    from scipy.special import gamma as G
+    tc1 = 2 * (5 / 8) ** 0.4 * math.sqrt(math.pi) * G(1.4) / G(0.9)
+    assert r.t_final == pytest.approx(tc1 * v0 ** -0.2, rel=1e-4)
+
+
+def test_long_run_has_no_energy_drift():
+    # 1e7 steps (about 3e5 collisions) of two granules rattling between walls.
+    # Each contact opening or closing adds a small non-cancelling energy error
+    # (the Hertz force is not smooth there), so the error wanders slowly: 3e-5
+    # after 1e3 steps, 1.8e-4 after 1e7 (measured). No blow-up.
+    s = scene(granules={"count": 2, "velocity": [1.0, -0.5], "gap": 0.3},
+              contacts={"exponent": 2.5},
+              walls={"left": {"gap": 0.2, "exponent": 2.5}, "right": {"gap": 0.2, "exponent": 2.5}},
+              run={"dt": 1e-2, "t_end": 1e5}, output={"every": 100000})
+    r = gc.simulate(s)
+    assert r.steps == 10_000_000 and r.success
+    assert r.energy.balance_error < 5e-4
+    b = np.abs(r.energy.balance)
+    assert b[-10:].max() < 10 * b[1:11].max()
+
+
+def test_single_granule_and_a_million_granules():
+    r = gc.simulate(gc.scene_from_dict({"granules": {"count": 1, "velocity": 2.0},
+                                        "run": {"t_end": 1.0, "dt": 0.1}}))
+    assert r.x_final[0] == pytest.approx(0.5 + 2.0) and r.v_final[0] == 2.0
+    big = gc.scene_from_dict({"granules": {"count": 1_000_000, "velocity": {0: 1.0}},
+                              "contacts": {"exponent": 2.5},
+                              "run": {"dt": 1e-2, "t_end": 0.5}})
+    r = gc.simulate(big)
+    assert r.steps == 50 and r.success and np.isfinite(r.energy.balance_error)
