@@ -131,8 +131,9 @@ class Model:
         periods = np.where(linear, 2 * math.pi * np.sqrt(mu / k), np.inf)
         # Other n: 3.2 times the collision time scale B of Appendix A at the
         # largest speed, or the small-oscillation period of a precompressed contact.
-        with np.errstate(divide="ignore", invalid="ignore"):
-            b = (mu * vrel * vrel / k) ** (1.0 / n) / vrel
+        with np.errstate(divide="ignore", invalid="ignore", under="ignore"):
+            # Nothing moving: no collision time scale (only precompression sets one).
+            b = (mu * vrel * vrel / k) ** (1.0 / n) / vrel if vmax > 0 else np.full(mu.size, np.inf)
             k_local = k * (n - 1) * np.where(d0 > 0, d0, 1.0) ** (n - 2)
             b = np.where(d0 > 0, np.minimum(b, 2 * math.pi * np.sqrt(mu / k_local)), b)
         periods = np.where(linear, periods, 3.2 * b)

@@ -26,6 +26,7 @@ class Status(enum.IntEnum):
     MAX_EVENTS = -3  #: event stepper: more than run.max_events events
     ZENO = -4  #: event stepper: events accumulate at a finite time
     UNSTABLE = -5  #: the energy ledger stopped balancing (error above the initial energy)
+    OVERLAP = -6  #: an overlap grew beyond a granule's radius: the contact model no longer applies
 
     @property
     def success(self) -> bool:

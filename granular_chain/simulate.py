@@ -164,6 +164,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     ledger = np.zeros(2)
     counts = np.zeros(4, dtype=np.int64)
 
+    limits = _overlap_limits(model)
     frames = _Frames()
     ke0, pe0 = _energies(model, u, v)
     e0 = ke0 + pe0
@@ -203,6 +204,14 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
             elif code == verlet.AT_REST:
                 status = Status.AT_REST
                 message = f"every granule at rest (held by static friction) at t = {t_now:.12g}"
+            problem = _overlap_problem(model, u, limits)
+            if problem:
+                status = Status.OVERLAP
+                message = f"{problem} at t = {t_now:.6g}; " + _OVERLAP_ADVICE
+                if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+                    message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
+                                f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
+                break
             ke, pe = _energies(model, u, v)
             balance = abs(ke + pe + ledger[0] + ledger[1] - e0)
             if e0 > 0 and not balance <= _UNSTABLE_BALANCE * e0:
@@ -229,6 +238,41 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
             bar.close()
     wall = time.perf_counter() - start
     return _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
+
+
+_OVERLAP_ADVICE = ("the contact is too soft for this impact (granules would pass "
+                   "through each other): raise contacts.stiffness or lower the velocities")
+
+
+def _overlap_limits(model: Model):
+    """Overlaps at which centres meet: r_i + r_(i+1) for contacts, r for a wall's granule."""
+    r = model.radius
+    return r[:-1] + r[1:], r[0], r[-1]
+
+
+def _overlap_problem(model: Model, u, limits) -> str:
+    """Describe the first contact whose granules have passed each other, or ''.
+
+    Checked at the output cadence. An overlap of r_i + r_(i+1) puts two centres
+    on top of each other: beyond it the granules are in the wrong order (a
+    crossing between two frames leaves them so), and the one-sided contact
+    model no longer describes the scene.
+    """
+    lim, left, right = limits
+    if model.count > 1:
+        delta = model.d0 + u[:-1] - u[1:]
+        bad = np.flatnonzero(delta >= lim)
+        if bad.size:
+            i = int(bad[0])
+            return (f"contact {i} overlaps by {delta[i]:.4g}, not less than the sum of the "
+                    f"radii {lim[i]:.4g}")
+    w = model.walls
+    if model.features.left_wall and w[0] - u[0] >= left:
+        return f"granule 0 overlaps the left wall by {w[0] - u[0]:.4g}, more than its radius"
+    if model.features.right_wall and w[3] + u[-1] >= right:
+        return (f"granule {model.count - 1} overlaps the right wall by {w[3] + u[-1]:.4g}, "
+                f"more than its radius")
+    return ""
 
 
 def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):

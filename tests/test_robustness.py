@@ -79,7 +79,8 @@ def test_dt_too_large_is_refused_with_the_limit():
 def test_unchecked_large_dt_stops_with_a_status_not_nan():
     r = gc.simulate(scene(granules={"count": 5, "velocity": {0: 1.0}},
                           run={"dt": 3.0, "t_end": 1000.0, "check_dt": False}))
-    assert r.status in (gc.Status.UNSTABLE, gc.Status.NONFINITE) and not r.success
+    assert r.status in (gc.Status.UNSTABLE, gc.Status.NONFINITE, gc.Status.OVERLAP)
+    assert not r.success
     assert "reduce run.dt" in r.message
     assert np.all(np.isfinite(r.x_final)) and np.all(np.isfinite(r.v))
 
@@ -111,14 +112,15 @@ def test_extreme_impact_speeds(v0):
 
 
 def test_long_run_has_no_energy_drift():
-    # 1e7 steps (about 3e5 collisions) of two granules rattling between walls.
+    # 1e7 steps (about 1e5 collisions) of two granules rattling between walls.
     # Each contact opening or closing adds a small non-cancelling energy error
     # (the Hertz force is not smooth there), so the error wanders slowly: 3e-5
     # after 1e3 steps, 1.8e-4 after 1e7 (measured). No blow-up.
     s = scene(granules={"count": 2, "velocity": [1.0, -0.5], "gap": 0.3},
-              contacts={"exponent": 2.5},
-              walls={"left": {"gap": 0.2, "exponent": 2.5}, "right": {"gap": 0.2, "exponent": 2.5}},
-              run={"dt": 1e-2, "t_end": 1e5}, output={"every": 100000})
+              contacts={"exponent": 2.5, "stiffness": 100.0},
+              walls={"left": {"gap": 0.2, "exponent": 2.5, "stiffness": 100.0},
+                     "right": {"gap": 0.2, "exponent": 2.5, "stiffness": 100.0}},
+              run={"dt": 1e-3, "t_end": 1e4}, output={"every": 100000})
     r = gc.simulate(s)
     assert r.steps == 10_000_000 and r.success
     assert r.energy.balance_error < 5e-4
@@ -135,3 +137,15 @@ def test_single_granule_and_a_million_granules():
                               "run": {"dt": 1e-2, "t_end": 0.5}})
     r = gc.simulate(big)
     assert r.steps == 50 and r.success and np.isfinite(r.energy.balance_error)
+
+
+def test_soft_contact_pushed_through_is_refused_not_crossed():
+    # Found by the property tests: a linear contact of k = 1 hit at relative
+    # speed 2 by masses 2 would need an overlap of 2, more than both radii.
+    s = scene(granules={"count": 2, "mass": 2.0, "radius": [0.5, 0.375], "velocity": [2.0, 0.0]},
+              run={"t_end": 8.0})
+    r = gc.simulate(s)
+    assert r.status == gc.Status.OVERLAP and not r.success
+    assert "contact 0 overlaps by" in r.message and "sum of the radii 0.875" in r.message
+    assert "raise contacts.stiffness" in r.message
+    assert np.all(np.diff(r.x, axis=1) > 0)
