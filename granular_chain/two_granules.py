@@ -65,7 +65,12 @@ def two_granule_scene(n: float = 2.0, eta=(0.0, 0.0), gamma=(0.0, 0.0), *,
                       stepper: str = "verlet", dt: Optional[float] = None,
                       eta_static=None, t_max: float = 1000.0, rtol: Optional[float] = None,
                       atol: Optional[float] = None) -> dict:
-    """The scene mapping of the paper's problem (see :func:`collide`)."""
+    """The scene mapping of the paper's problem (see :func:`collide`).
+
+    Only displacements enter the scaled problem; the radius 1 keeps the overlap
+    (which reaches 1 when granule 2 is held fast and granule 1 stops) below the
+    sum of the radii, where the engine would refuse the scene as unphysical.
+    """
     # Stop at separation (the collision ends) or when both granules are at rest:
     # with Coulomb friction a collision that sticks while compressed is a fixed
     # point, and waiting for t_max would only cost time.
@@ -83,7 +88,7 @@ def two_granule_scene(n: float = 2.0, eta=(0.0, 0.0), gamma=(0.0, 0.0), *,
         friction["static"] = [float(eta_static[0]), float(eta_static[1])]
     return {
         "name": "two_granules",
-        "granules": {"count": 2, "mass": 1.0, "radius": 0.5, "gap": 0.0,
+        "granules": {"count": 2, "mass": 1.0, "radius": 1.0, "gap": 0.0,
                      "velocity": [1.0, 0.0], "friction": friction},
         "contacts": {"exponent": float(n), "stiffness": 1.0},
         "run": run,
