@@ -1,0 +1,78 @@
+"""Throughput of the steppers on a struck Hertz chain (issue 5).
+
+A chain of N touching granules (m = 1, radius 0.5, k = 1, n = 5/2, dt = 0.01,
+scaled units), granule 0 struck with v = 1, friction on every granule when
+asked (eta = 1e-3, gamma = 1e-2). Prints one JSON object (with --json) or a
+line: grains, steps, seconds (stepping alone: the kernel is compiled, or loaded
+from numba's cache, by a warm-up run first), grain_steps_per_s, and the
+energy-ledger balance error at the end.
+
+    python benchmarks/throughput.py --grains 10000 --steps 20000 --features coulomb+viscous --json
+"""
+
+import argparse
+import json
+import time
+
+import granular_chain as gc
+
+FRICTION = {
+    "frictionless": {},
+    "coulomb": {"kinetic": 1e-3},
+    "viscous": {"viscous": 1e-2},
+    "coulomb+viscous": {"kinetic": 1e-3, "viscous": 1e-2},
+}
+
+
+def chain_scene(grains, steps, features, dt=0.01, stepper="verlet"):
+    return gc.scene_from_dict({
+        "name": "throughput",
+        "granules": {"count": grains, "mass": 1.0, "radius": 0.5, "gap": 0.0,
+                     "velocity": {0: 1.0}, "friction": FRICTION[features]},
+        "contacts": {"exponent": 2.5, "stiffness": 1.0},
+        "run": {"stepper": stepper, "dt": dt, "t_end": steps * dt},
+        # one frame at the end: the run is a single compiled chunk
+        "output": {"every": steps, "trajectory": False},
+    })
+
+
+def measure(grains, steps, features, stepper="verlet"):
+    gc.simulate(chain_scene(grains, 2, features, stepper=stepper), progress=False)  # warm-up
+    scene = chain_scene(grains, steps, features, stepper=stepper)
+    t0 = time.perf_counter()
+    r = gc.simulate(scene, progress=False)
+    total = time.perf_counter() - t0
+    out = {
+        "grains": grains, "steps": r.steps, "features": features, "stepper": stepper,
+        "seconds": r.wall_time, "seconds_with_setup": total,
+        "energy_balance_error": r.energy.balance_error, "status": r.status.name.lower(),
+    }
+    if stepper == "verlet":
+        out["grain_steps_per_s"] = grains * r.steps / r.wall_time
+    else:
+        n_events = sum(r.event_counts.values())
+        out["events"] = n_events
+        out["events_per_s"] = n_events / r.wall_time if r.wall_time > 0 else None
+        out["seconds_per_event"] = r.wall_time / n_events if n_events else None
+    return out
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--grains", type=int, default=10000)
+    p.add_argument("--steps", type=int, default=10000)
+    p.add_argument("--features", choices=sorted(FRICTION), default="frictionless")
+    p.add_argument("--stepper", choices=["verlet", "event"], default="verlet")
+    p.add_argument("--json", action="store_true")
+    a = p.parse_args()
+    out = measure(a.grains, a.steps, a.features, a.stepper)
+    if a.json:
+        print(json.dumps(out))
+    else:
+        rate = out.get("grain_steps_per_s") or out.get("events_per_s")
+        print(f"{a.stepper} {a.features} N={a.grains}: {out['seconds']:.3f} s, {rate:.4g} /s, "
+              f"balance error {out['energy_balance_error']:.2e}")
+
+
+if __name__ == "__main__":
+    main()
