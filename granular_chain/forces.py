@@ -19,6 +19,28 @@ from .laws.contact import contact_energy, contact_force
 
 
 @numba.njit(inline="always", cache=True)
+def contact_forces(law, u, d0, k, n, c):
+    """Fill ``c`` (N-1,) with the compressive force of every contact (>= 0).
+
+    A loop with no loop-carried value: it vectorises.
+    """
+    for i in range(u.size - 1):
+        c[i] = contact_force(law, d0[i] + u[i] - u[i + 1], k[i], n[i])
+
+
+@numba.njit(inline="always", cache=True)
+def wall_forces(law, left_wall, right_wall, u, walls):
+    """Forces of the walls on granule 0 (to the right) and granule N-1 (to the left, >= 0)."""
+    fl = 0.0
+    fr = 0.0
+    if left_wall:
+        fl = contact_force(law, walls[0] - u[0], walls[1], walls[2])
+    if right_wall:
+        fr = contact_force(law, walls[3] + u[u.size - 1], walls[4], walls[5])
+    return fl, fr
+
+
+@numba.njit(inline="always", cache=True)
 def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
     """Fill contact forces ``c`` (N-1,) and net spring forces ``f`` (N,).
 
@@ -38,20 +60,15 @@ def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
         Output: net spring force on each granule (positive to the right).
     """
     N = u.size
-    # Two passes keep both loops free of a loop-carried value, so they vectorise.
-    for i in range(N - 1):
-        c[i] = contact_force(law, d0[i] + u[i] - u[i + 1], k[i], n[i])
+    contact_forces(law, u, d0, k, n, c)
+    fl, fr = wall_forces(law, left_wall, right_wall, u, walls)
     if N > 1:
-        f[0] = -c[0]
+        f[0] = fl - c[0]
         for i in range(1, N - 1):
             f[i] = c[i - 1] - c[i]
-        f[N - 1] = c[N - 2]
+        f[N - 1] = c[N - 2] - fr
     else:
-        f[0] = 0.0
-    if left_wall:
-        f[0] += contact_force(law, walls[0] - u[0], walls[1], walls[2])
-    if right_wall:
-        f[N - 1] -= contact_force(law, walls[3] + u[N - 1], walls[4], walls[5])
+        f[0] = fl - fr
 
 
 @numba.njit(inline="always", cache=True)

@@ -10,7 +10,8 @@ from granular_chain.model import build_model, hertz_stiffness
 
 
 def _scene(**kw):
-    base = {"name": "t", "granules": {"count": 1, "velocity": -1.0},
+    # radius 2: the largest wall overlap (1, for m = k = v = 1) stays below it
+    base = {"name": "t", "granules": {"count": 1, "velocity": -1.0, "radius": 2.0},
             "walls": {"left": {"gap": 0.0, "stiffness": 1.0, "exponent": 2.0}},
             "run": {"dt": 1e-3, "t_end": 5.0}}
     for key, value in kw.items():
@@ -22,7 +23,7 @@ def test_single_granule_bounces_elastically_off_a_linear_wall():
     # m = k = 1: in contact for half a period, pi, then leaves at +1.
     r = gc.simulate(_scene())
     assert r.v_final[0] == pytest.approx(1.0, abs=1e-6)
-    x_exact = 0.5 + (5.0 - math.pi) * 1.0
+    x_exact = 2.0 + (5.0 - math.pi) * 1.0
     assert r.x_final[0] == pytest.approx(x_exact, abs=1e-5)
     assert r.event_counts == {"contact_close": 0, "contact_open": 0, "stop": 0, "slip": 0}
 
@@ -30,15 +31,16 @@ def test_single_granule_bounces_elastically_off_a_linear_wall():
 def test_chain_between_two_walls_keeps_its_energy():
     s = gc.scene_from_dict({
         "granules": {"count": 5, "velocity": {2: 1.0}, "gap": 0.1},
-        "contacts": {"exponent": 2.5},
-        "walls": {"left": {"gap": 0.1, "exponent": 2.5}, "right": {"gap": 0.1, "exponent": 2.5}},
-        "run": {"dt": 2e-3, "t_end": 40.0}})
+        "contacts": {"exponent": 2.5, "stiffness": 100.0},
+        "walls": {"left": {"gap": 0.1, "exponent": 2.5, "stiffness": 100.0},
+                  "right": {"gap": 0.1, "exponent": 2.5, "stiffness": 100.0}},
+        "run": {"dt": 5e-4, "t_end": 40.0}})
     r = gc.simulate(s)
     assert r.energy.balance_error < 1e-5
     x = r.x
     assert np.all(np.diff(x, axis=1) > 0)  # granules never pass each other
-    # No wall overlap can exceed the one that stores all the energy: (2/5) d^(5/2) = 1/2.
-    dmax = 1.25 ** 0.4
+    # No wall overlap can exceed the one that stores all the energy: 40 d^(5/2) = 1/2.
+    dmax = (0.5 / 40) ** 0.4
     left_wall, right_wall = -0.1, x[0, -1] + 0.5 + 0.1
     assert np.all(left_wall + 0.5 - x[:, 0] < dmax)
     assert np.all(x[:, -1] + 0.5 - right_wall < dmax)

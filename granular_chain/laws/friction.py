@@ -87,9 +87,33 @@ def viscous_kick(v, F, m, inv_m, E, P1, P2):
     return v1, 0.0, w_visc, 0
 
 
+@numba.njit(cache=True)
+def _viscous_coulomb_stop(v, F, eta, m, c, h, a, s, slip, s2, a2):
+    """A granule sliding in direction s under Coulomb and viscous friction stops at
+    t* inside the kick of length h, then sticks or slides along F: (v, w_c, w_v)."""
+    t_stop = min(phi1_inverse(c, -v / (a - c * v)), h)
+    disp = v * phi1(c, t_stop) + a * phi2(c, t_stop)
+    w_c = -eta * s * disp
+    w_v = -0.5 * m * v * v - F * disp - w_c
+    v_new = 0.0
+    if slip:
+        rem = h - t_stop
+        v_new = a2 * phi1(c, rem)
+        dd = a2 * phi2(c, rem)
+        w_c2 = -eta * s2 * dd
+        w_c += w_c2
+        w_v += 0.5 * m * v_new * v_new - F * dd - w_c2
+    return v_new, w_c, w_v
+
+
 @numba.njit(inline="always", cache=True)
 def coulomb_kick(viscous, v, F, eta, eta_s, m, inv_m, c, E, P1, P2, h):
     """Exact kick under Coulomb stick/slip (and, if ``viscous``, drag -gamma v).
+
+    Written without branches (selects only) so that chains where granules
+    stick, slide and reverse at random cost the same as smooth ones and the
+    loop can vectorise. The one exception is a *viscous* granule that stops
+    inside the kick: its stopping time needs a logarithm, computed only then.
 
     Parameters
     ----------
@@ -106,62 +130,44 @@ def coulomb_kick(viscous, v, F, eta, eta_s, m, inv_m, c, E, P1, P2, h):
     h : float
         Kick duration (dt/2).
     """
-    s = 0.0
-    if v > 0.0:
-        s = 1.0
-    elif v < 0.0:
-        s = -1.0
+    s = (1.0 if v > 0.0 else 0.0) - (1.0 if v < 0.0 else 0.0)
     a = (F - eta * s) * inv_m
-    if viscous:
-        v1 = v * E + a * P1
-    else:
-        v1 = v + a * h
-    if v1 * s > 0.0:
-        # Slid the whole kick without stopping: the common case, no branch below.
-        if viscous:
-            disp = v * P1 + a * P2
-            w_c = -eta * s * disp
-            w_v = 0.5 * m * (v1 * v1 - v * v) - F * disp - w_c
-        else:
-            disp = (v + 0.5 * a * h) * h
-            w_c = -eta * s * disp
-            w_v = 0.0
-        return v1, w_c, w_v, 0
-    code = 0
-    w_c = 0.0
-    w_v = 0.0
-    rem = h
-    if s != 0.0:
-        # Stops inside the kick at t*, where v(t*) = 0.
-        code = STOPPED
-        if viscous:
-            t_stop = phi1_inverse(c, -v / (a - c * v))
-            t_stop = min(t_stop, h)
-            disp = v * phi1(c, t_stop) + a * phi2(c, t_stop)
-            w_c = -eta * s * disp
-            w_v = -0.5 * m * v * v - F * disp - w_c
-        else:
-            t_stop = min(-v / a, h)
-            disp = 0.5 * v * t_stop
-            w_c = -eta * s * disp
-        rem = h - t_stop
-    if abs(F) <= eta_s:
-        return 0.0, w_c, w_v, code
-    # The spring beats the static threshold: slide along F for the remaining time.
+    # Starting from rest (s = 0) or after a stop: slide along F if it beats the
+    # static threshold, for the time left in the kick.
+    slip = abs(F) > eta_s
     s2 = 1.0 if F > 0.0 else -1.0
     a2 = (F - eta * s2) * inv_m
     if viscous:
-        p1 = phi1(c, rem)
-        p2 = phi2(c, rem)
-        v2 = a2 * p1
-        disp2 = a2 * p2
-        w_c2 = -eta * s2 * disp2
-        w_v += 0.5 * m * v2 * v2 - F * disp2 - w_c2
+        v1 = v * E + a * P1
+        through = v1 * s > 0.0  # slid the whole kick without stopping
+        disp1 = v * P1 + a * P2
+        # From rest at the start of the kick: rem = h, so phi1, phi2 are P1, P2.
+        v2 = a2 * P1
+        disp2 = a2 * P2
+        w_c = -eta * (s * disp1 if through else (abs(disp2) if slip else 0.0))
+        w_v = 0.5 * m * (v1 * v1 - v * v) - F * disp1 + eta * s * disp1 if through else (
+            0.5 * m * v2 * v2 - F * disp2 + eta * abs(disp2) if slip else 0.0)
+        v_new = v1 if through else (v2 if slip else 0.0)
+        stopped = (not through) and s != 0.0
+        if stopped:
+            # Rare: a sliding granule stops inside the kick (needs a logarithm);
+            # out of line so that the hot loop stays small.
+            v_new, w_c, w_v = _viscous_coulomb_stop(v, F, eta, m, c, h, a, s, slip, s2, a2)
     else:
+        v1 = v + a * h
+        through = v1 * s > 0.0
+        stopped = (not through) and s != 0.0
+        # Stopping time |v|/|a| (0 from rest); a decelerates when not through.
+        t_stop = min(abs(v) / max(abs(a), 1e-300), h)
+        rem = h - t_stop
         v2 = a2 * rem
-        disp2 = 0.5 * a2 * rem * rem
-        w_c2 = -eta * s2 * disp2
-    return v2, w_c + w_c2, w_v, code | SLIPPED
+        d1 = (v + 0.5 * a * h) * h * s if through else 0.5 * abs(v) * t_stop
+        d2 = 0.5 * abs(a2) * rem * rem if (slip and not through) else 0.0
+        w_c = -eta * (d1 + d2)
+        w_v = 0.0
+        v_new = v1 if through else (v2 if slip else 0.0)
+    code = (STOPPED if stopped else 0) | (SLIPPED if (slip and not through) else 0)
+    return v_new, w_c, w_v, code
 
 
 @numba.njit(cache=True)
