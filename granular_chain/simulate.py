@@ -29,6 +29,7 @@ __all__ = ["simulate", "SimulationError", "default_dt", "check_dt"]
 _STABILITY_FRACTION = 1.0 / math.pi
 _DEFAULT_STEPS_PER_PERIOD = 200
 _DEFAULT_FRAMES = 1000
+_DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
 _UNSTABLE_BALANCE = 1.0
 
 
@@ -144,7 +145,9 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     elif out.dt is not None:
         every = max(1, int(round(out.dt / dt)))
     else:
-        every = max(1, n_total // _DEFAULT_FRAMES)
+        # About 1000 frames, fewer for long chains: the frames are kept in memory.
+        frames_wanted = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // max(N, 1)))
+        every = max(1, n_total // frames_wanted)
 
     stops = settings.stop_conditions
     stop_mode = (verlet.STOP_ON_SEPARATION if "separation" in stops else 0) | (
