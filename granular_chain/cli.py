@@ -1,4 +1,4 @@
-"""The ``granular-chain`` command: run | validate | schema | plot.
+"""The ``granular-chain`` command: run | validate | schema | plot | sweep | diagnose.
 
 Exit status: 0 success, 1 a run that ended without success (its outputs say
 why), 2 bad input (one line on stderr naming the file, the field and the
@@ -78,6 +78,11 @@ def _parser() -> argparse.ArgumentParser:
                       help="skip frame.png (the pyvista off-screen rendering)")
     plot.add_argument("--out", default=None,
                       help="folder for the PNGs (default RUN_DIR/plots)")
+    from .diagnostics import add_diagnose_parser
+    from .sweep import add_sweep_parser
+
+    add_sweep_parser(sub)
+    add_diagnose_parser(sub)
     return p
 
 
@@ -98,10 +103,19 @@ def _prepare_output(out: Path) -> Path:
 
 def _publish(tmp: Path, out: Path) -> None:
     """Move the finished temporary folder onto ``out`` (replacing an older run)."""
+    # mkdtemp makes the folder private (0700); the published run gets the
+    # permissions an ordinary mkdir would have given it.
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)
     if out.exists():
         old = out.with_name(f".{out.name}.old-{os.getpid()}")
         out.rename(old)
-        tmp.rename(out)
+        try:
+            tmp.rename(out)
+        except BaseException:
+            old.rename(out)  # put the previous run back rather than leave no --out
+            raise
         shutil.rmtree(old, ignore_errors=True)
     else:
         tmp.rename(out)
@@ -162,6 +176,7 @@ def cmd_run(args) -> int:
         return _fail(f"--out: {out} exists and is not a folder")
     progress = None if not args.quiet else False
     tmp = None
+    published = False
     try:
         with _sigterm_as_exception():
             tmp = _prepare_output(out)
@@ -173,11 +188,14 @@ def cmd_run(args) -> int:
             _write_outputs(result, tmp, scene,
                            progress=(not args.quiet) and sys.stderr.isatty())
             _publish(tmp, out)
-    except SceneError as exc:  # --out cannot be created
+            published = True
+    except SceneError as exc:  # --out cannot be created (raised before tmp exists)
         return _fail(str(exc))
     except BaseException as exc:
-        if tmp is not None:
+        if tmp is not None and not published:
             shutil.rmtree(tmp, ignore_errors=True)
+        if published:  # interrupted after the rename: the output is complete
+            raise
         if isinstance(exc, KeyboardInterrupt):
             print(f"granular-chain: interrupted; nothing written to {out}", file=sys.stderr)
             return EXIT_INTERRUPTED
@@ -252,6 +270,12 @@ def main(argv=None) -> int:
         return cmd_validate(args)
     if args.command == "plot":
         return cmd_plot(args)
+    if args.command == "sweep":
+        from .sweep import run_sweep_command
+        return run_sweep_command(args)
+    if args.command == "diagnose":
+        from .diagnostics import run_diagnose_command
+        return run_diagnose_command(args)
     if args.command == "schema":
         print(json.dumps(scene_json_schema(), indent=2))
         return EXIT_OK

@@ -192,6 +192,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
             t_now = steps * dt
             if bar is not None:
                 bar.update(taken)
+                bar.set_postfix_str(f"t = {t_now:.4g} / {t_end:g}", refresh=False)
             if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
                 bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(v)))[0])
                 status = Status.NONFINITE
@@ -309,7 +310,7 @@ def _progress_bar(progress: Optional[bool], total: int):
     if progress is None and not sys.stderr.isatty():
         return None
     from tqdm import tqdm
-    return tqdm(total=total, unit="step", unit_scale=True, mininterval=0.5, delay=2.0,
+    return tqdm(total=total, desc="simulating", unit="step", unit_scale=True, mininterval=0.5, delay=2.0,
                 file=sys.stderr, leave=False)
 
 

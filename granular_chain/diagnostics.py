@@ -1,0 +1,555 @@
+"""Diagnostics of a chain run: the pulse, its width, backscattering, the energy ledger.
+
+Pure functions of a :class:`~granular_chain.result.Result` (plus the masses, read
+from a :class:`~granular_chain.model.Model` or a :class:`~granular_chain.scene.Scene`
+where energies are needed). Nothing here runs a simulation, except the CLI entry
+point :func:`run_diagnose_command` when it is handed a scene file.
+
+Frames matter. Every quantity is read off the recorded frames ``result.t``,
+``result.v`` (shape ``(F, N)``), so its resolution is the output cadence:
+
+* per-granule peak times (:func:`peak_times`, :func:`pulse_speed`) need frames
+  much finer than the time the pulse takes to cross one granule (for a Hertz
+  chain in scaled units, ~1 time unit): ``output.every`` of a few steps, or
+  ``output.dt`` <= 0.05. The peak of each granule is refined by a parabola
+  through the three frames around the largest sample, which makes the error
+  O(frame spacing^3) for a smooth peak rather than O(frame spacing);
+* widths are snapshots at single frames;
+* maxima over time (:func:`backscatter` ``energy_max``) can miss a maximum that
+  falls between frames.
+
+Units are the scene's (scaled or SI). Speeds come in two forms: in granules per
+unit time (from fitting granule index against peak time) and in length per unit
+time (fitting the granules' initial centre positions instead).
+
+Long-wave reference (Nesterenko): for a chain of equal masses ``m``, spacing
+``a`` (= 2R for touching spheres) and contact force ``F = k delta^(3/2)``, the
+continuum limit ``u_tt = -c^2 d/dx[(-u_x)^(3/2) + (a^2/10) ...]`` with
+``c^2 = k a^(5/2) / m`` has the solitary wave
+
+    xi(x) = (5 V^2 / (4 c^2))^2 cos^4(sqrt(10) x / (5 a)),   |x| <= 5 pi a / (2 sqrt 10)
+
+(strain ``xi = -u_x``), so ``V = (2/sqrt 5) c xi_m^(1/4)``. The particle velocity
+in the wave is ``v = V xi`` (travelling wave), so with the peak particle
+velocity ``v_m = V xi_m``::
+
+    V_s = (16/25)^(1/5) c^(4/5) v_m^(1/5) = (16/25)^(1/5) a (k/m)^(2/5) v_m^(1/5)
+
+about 0.9146 in scaled units (m = k = a = 1, v_m = 1). The wave spans
+``5 pi a / sqrt 10 = 4.97 a``: "about five granules". (V. F. Nesterenko,
+J. Appl. Mech. Tech. Phys. 24, 733 (1983); *Dynamics of Heterogeneous
+Materials*, Springer 2001, Sec. 1.3; S. Sen et al., Phys. Rep. 462, 21 (2008),
+eq. (12)-(14).) :func:`nesterenko_speed` returns it; tests report the ratio
+to the measured speed, they do not force it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .result import Result, Status
+
+__all__ = [
+    "PulseFit", "peak_times", "pulse_speed", "pulse_position", "pulse_width",
+    "pulse_widths_along", "fitted_width", "backscatter", "energy_ledger", "pulse_death_time",
+    "penetration_depth", "nesterenko_speed", "nesterenko_width", "summarize",
+    "add_diagnose_parser", "run_diagnose_command",
+]
+
+# Half-width of the cos^4 hump in units of a: the support is |x| <= 5 pi a / (2 sqrt 10).
+NESTERENKO_WIDTH = 5.0 * math.pi / math.sqrt(10.0)  # 4.967 a
+
+
+def nesterenko_speed(v_max: float, k: float = 1.0, m: float = 1.0, a: float = 1.0) -> float:
+    """Nesterenko's long-wave solitary wave speed for a Hertz chain (length per time).
+
+    Parameters
+    ----------
+    v_max : float
+        Peak particle velocity in the wave (not the striker's speed).
+    k : float
+        Force coefficient, F = k delta^(3/2).
+    m : float
+        Granule mass.
+    a : float
+        Spacing of the centres (2R for touching equal spheres).
+
+    Returns
+    -------
+    float
+        ``(16/25)^(1/5) * a * (k/m)^(2/5) * v_max^(1/5)`` (see the module docstring).
+    """
+    c = a ** 1.25 * math.sqrt(k / m)
+    return (16.0 / 25.0) ** 0.2 * c ** 0.8 * v_max ** 0.2
+
+
+def nesterenko_width(a: float = 1.0) -> float:
+    """Length of the support of Nesterenko's cos^4 solitary wave, 5 pi a / sqrt(10) = 4.97 a."""
+    return NESTERENKO_WIDTH * a
+
+
+def _masses(model_or_scene, count: int) -> np.ndarray:
+    """Masses from a Model, a Scene, an array, or unit masses when None."""
+    if model_or_scene is None:
+        return np.ones(count)
+    if isinstance(model_or_scene, np.ndarray):
+        return model_or_scene
+    mass = getattr(model_or_scene, "mass", None)
+    if isinstance(mass, np.ndarray):
+        return mass
+    from .model import build_model  # a Scene
+    return build_model(model_or_scene).mass
+
+
+def _reference_chain(model_or_scene) -> Optional[dict]:
+    """k, m, a of contact 0 and granule 0 for Nesterenko's formula (Hertz contacts only)."""
+    if model_or_scene is None:
+        return None
+    model = model_or_scene
+    if not hasattr(model, "k"):
+        from .model import build_model
+        model = build_model(model_or_scene)
+    if model.count < 2 or float(model.n[0]) != 2.5:
+        return None
+    return {"k": float(model.k[0]), "m": float(model.mass[0]),
+            "a": float(model.x0[1] - model.x0[0])}
+
+
+def _parabola_peak(y0, y1, y2):
+    """Offset (in samples, within [-1, 1]) and height of the parabola through 3 samples."""
+    den = y0 - 2.0 * y1 + y2
+    if den >= 0.0:  # not a strict maximum: keep the sample
+        return 0.0, y1
+    s = 0.5 * (y0 - y2) / den
+    s = min(max(s, -1.0), 1.0)
+    return s, y1 - 0.25 * (y0 - y2) * s
+
+
+def peak_times(result: Result, granules: Optional[Sequence[int]] = None):
+    """Time at which each granule reaches its largest (forward) velocity, and that velocity.
+
+    Needs frames at a fine cadence (``output.every`` of a few steps): the peak
+    is the largest frame, refined by a parabola through it and its two
+    neighbouring frames (uniform frame spacing assumed, as Verlet output is).
+
+    Parameters
+    ----------
+    result : Result
+        With ``v`` of shape (F, N).
+    granules : sequence of int, optional
+        Which granules (default all).
+
+    Returns
+    -------
+    t_peak, v_peak : ndarray, shape (len(granules),)
+        Peak time and peak velocity; ``nan`` for a granule that never moved
+        forward, or whose largest velocity is at the first or last frame
+        (a peak the run did not resolve).
+    """
+    v = np.asarray(result.v)
+    t = np.asarray(result.t)
+    idx = np.arange(v.shape[1]) if granules is None else np.asarray(granules, dtype=int)
+    tp = np.full(idx.size, np.nan)
+    vp = np.full(idx.size, np.nan)
+    for out, i in enumerate(idx):
+        col = v[:, i]
+        j = int(np.argmax(col))
+        if col[j] <= 0.0 or j == 0 or j == col.size - 1:
+            continue
+        s, h = _parabola_peak(col[j - 1], col[j], col[j + 1])
+        step = (t[j + 1] - t[j - 1]) / 2.0
+        tp[out] = t[j] + s * step
+        vp[out] = h
+    return tp, vp
+
+
+@dataclass(frozen=True)
+class PulseFit:
+    """The leading pulse fitted over a range of granules.
+
+    Attributes
+    ----------
+    speed : float
+        Granules per unit time: slope of granule index against peak time.
+    speed_length : float
+        Length per unit time: slope of initial centre position against peak time.
+    v_peak : float
+        Mean peak velocity over the fitted granules.
+    v_peak_spread : float
+        (max - min) / mean of the peak velocities over the fitted granules: near 0
+        for a steady solitary wave.
+    first, last : int
+        Granule range fitted (inclusive).
+    residual : float
+        RMS of the index-vs-time fit residual, in granules.
+    """
+
+    speed: float
+    speed_length: float
+    v_peak: float
+    v_peak_spread: float
+    first: int
+    last: int
+    residual: float
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def pulse_speed(result: Result, first: Optional[int] = None, last: Optional[int] = None) -> PulseFit:
+    """Speed of the leading pulse from a straight-line fit of index (and position) vs peak time.
+
+    Needs frames at a fine cadence (see :func:`peak_times`). The default range
+    skips the first 10 granules (the pulse is still forming behind the striker)
+    and the last 5 (the free end reflects it): granules ``[10, N-6]``, shrunk for
+    short chains.
+
+    Parameters
+    ----------
+    result : Result
+    first, last : int, optional
+        Inclusive range of granules used in the fit.
+
+    Returns
+    -------
+    PulseFit
+    """
+    N = result.v.shape[1]
+    if first is None:
+        first = min(10, max(N // 4, 1))
+    if last is None:
+        last = max(N - 6, first + 2)
+    last = min(last, N - 1)
+    idx = np.arange(first, last + 1)
+    tp, vp = peak_times(result, idx)
+    ok = np.isfinite(tp)
+    if ok.sum() < 3:
+        raise ValueError(f"pulse_speed: fewer than 3 granules in {first}..{last} reached a "
+                         f"resolved forward peak; run longer or fit fewer granules")
+    idx, tp, vp = idx[ok], tp[ok], vp[ok]
+    slope, icpt = np.polyfit(tp, idx, 1)
+    x0 = np.asarray(result.x[0])[idx]
+    slope_x = np.polyfit(tp, x0, 1)[0]
+    res = float(np.sqrt(np.mean((idx - (slope * tp + icpt)) ** 2)))
+    vmean = float(np.mean(vp))
+    return PulseFit(speed=float(slope), speed_length=float(slope_x), v_peak=vmean,
+                    v_peak_spread=float((vp.max() - vp.min()) / vmean), first=int(idx[0]),
+                    last=int(idx[-1]), residual=res)
+
+
+def pulse_position(result: Result):
+    """Leading pulse at each frame: position (fractional granule index) and peak velocity.
+
+    The position is the granule of largest forward velocity, refined by a
+    parabola through it and its neighbours in index.
+
+    Returns
+    -------
+    position, v_peak : ndarray, shape (F,)
+        ``nan`` where no granule moves forward.
+    """
+    v = np.asarray(result.v)
+    F, N = v.shape
+    pos = np.full(F, np.nan)
+    peak = np.full(F, np.nan)
+    for f in range(F):
+        row = v[f]
+        j = int(np.argmax(row))
+        if row[j] <= 0.0:
+            continue
+        if 0 < j < N - 1:
+            s, h = _parabola_peak(row[j - 1], row[j], row[j + 1])
+        else:
+            s, h = 0.0, row[j]
+        pos[f] = j + s
+        peak[f] = h
+    return pos, peak
+
+
+def pulse_width(result: Result, frame: int, fraction: float = 0.5) -> dict:
+    """Width of the pulse at one frame.
+
+    Parameters
+    ----------
+    result : Result
+    frame : int
+        Frame index (negative counts from the end).
+    fraction : float
+        Threshold as a fraction of the frame's peak forward velocity.
+
+    Returns
+    -------
+    dict
+        ``count``: number of granules with ``v > fraction * v_peak`` (the discrete
+        definition); ``interpolated``: the width of the contiguous run around the
+        peak where v exceeds the threshold, with its two edges located by linear
+        interpolation between granules (a continuous number of granules, the
+        full width at ``fraction`` of the maximum); ``peak_index`` and ``v_peak``.
+    """
+    row = np.asarray(result.v[frame])
+    j = int(np.argmax(row))
+    vmax = float(row[j])
+    if vmax <= 0.0:
+        return {"count": 0, "interpolated": 0.0, "peak_index": j, "v_peak": vmax}
+    thr = fraction * vmax
+    count = int(np.sum(row > thr))
+    lo = j
+    while lo > 0 and row[lo - 1] > thr:
+        lo -= 1
+    hi = j
+    while hi < row.size - 1 and row[hi + 1] > thr:
+        hi += 1
+    left = lo - ((row[lo] - thr) / (row[lo] - row[lo - 1]) if lo > 0 else 0.0)
+    right = hi + ((row[hi] - thr) / (row[hi] - row[hi + 1]) if hi < row.size - 1 else 0.0)
+    return {"count": count, "interpolated": float(right - left), "peak_index": j, "v_peak": vmax}
+
+
+def fitted_width(result: Result, frame: int) -> dict:
+    """Support length of a cos^4 hump fitted to the velocity profile at one frame.
+
+    Fits ``v_i = v_m cos^4(pi (i - c) / L)`` for ``|i - c| < L/2`` (zero outside),
+    Nesterenko's profile shape, by least squares over the granules around the
+    peak; ``L`` (in granules) is comparable with Nesterenko's 5 pi / sqrt(10) = 4.97.
+
+    Returns
+    -------
+    dict
+        ``length`` L, ``centre`` c, ``v_max`` v_m, ``rms`` residual over v_m.
+    """
+    from scipy.optimize import least_squares
+
+    row = np.asarray(result.v[frame], dtype=float)
+    j = int(np.argmax(row))
+    lo, hi = max(j - 8, 0), min(j + 9, row.size)
+    i = np.arange(lo, hi, dtype=float)
+    y = row[lo:hi]
+
+    def model(p):
+        vm, c, L = p
+        z = np.pi * (i - c) / L
+        return np.where(np.abs(z) < np.pi / 2, vm * np.cos(z) ** 4, 0.0)
+
+    guess = pulse_width(result, frame, 0.5)["interpolated"] / 0.3641  # FWHM of cos^4 = 0.364 L
+    sol = least_squares(lambda p: model(p) - y, [row[j], float(j), max(guess, 1.0)],
+                        bounds=([0, lo, 0.5], [np.inf, hi, 50.0]))
+    vm, c, L = sol.x
+    return {"length": float(L), "centre": float(c), "v_max": float(vm),
+            "rms": float(np.sqrt(np.mean(sol.fun ** 2)) / max(vm, 1e-300))}
+
+
+def pulse_widths_along(result: Result, granules: Sequence[int], fraction: float = 0.5):
+    """Pulse width when the peak sits at each given granule (for spreading vs distance).
+
+    For each granule i, the frame closest to its peak time (:func:`peak_times`)
+    is used. Needs frames at a fine cadence.
+
+    Returns
+    -------
+    ndarray, shape (len(granules),)
+        Interpolated widths (see :func:`pulse_width`), ``nan`` if unresolved.
+    """
+    tp, _ = peak_times(result, granules)
+    t = np.asarray(result.t)
+    out = np.full(len(granules), np.nan)
+    for k, tk in enumerate(tp):
+        if np.isfinite(tk):
+            out[k] = pulse_width(result, int(np.argmin(np.abs(t - tk))), fraction)["interpolated"]
+    return out
+
+
+def backscatter(result: Result, model_or_scene=None, first: Optional[int] = None) -> dict:
+    """Backscattered velocity and energy of the first granules.
+
+    Parameters
+    ----------
+    result : Result
+    model_or_scene : Model, Scene or ndarray, optional
+        Source of the masses (unit masses if None).
+    first : int, optional
+        Only granules ``0 .. first-1`` (default all).
+
+    Returns
+    -------
+    dict
+        ``velocity``: the most negative final velocity among them (0 if none moves back);
+        ``energy``: sum of m v^2 / 2 over those moving backward at the end (``v_final < 0``);
+        ``count``: how many move backward at the end;
+        ``energy_max``: the largest value over the frames of that same sum (with
+        friction every granule eventually stops, so the final value can be zero
+        although the pulse did throw granules back; this needs fine frames);
+        ``t_energy_max``: its time; ``velocity_min``: the most negative velocity
+        any of them reached at a frame; ``fraction``, ``fraction_max``: energies
+        over the initial energy.
+    """
+    N = result.v.shape[1]
+    k = N if first is None else min(first, N)
+    m = _masses(model_or_scene, N)[:k]
+    vf = np.asarray(result.v_final)[:k]
+    back = vf < 0
+    e_final = float(0.5 * np.sum(m[back] * vf[back] ** 2))
+    v = np.asarray(result.v)[:, :k]
+    eb = 0.5 * np.sum(m * np.minimum(v, 0.0) ** 2, axis=1)
+    j = int(np.argmax(eb))
+    e0 = result.energy.initial or 1.0
+    return {
+        "velocity": float(min(vf.min(), 0.0)) if k else 0.0,
+        "energy": e_final,
+        "count": int(back.sum()),
+        "energy_max": float(eb[j]),
+        "t_energy_max": float(result.t[j]),
+        "velocity_min": float(min(v.min(), 0.0)) if k else 0.0,
+        "fraction": e_final / e0,
+        "fraction_max": float(eb[j]) / e0,
+    }
+
+
+def energy_ledger(result: Result) -> dict:
+    """Energy ledger over time: arrays of shape (F,) keyed by name.
+
+    ``t``, ``kinetic``, ``potential``, ``coulomb`` and ``viscous`` (dissipated so
+    far), ``mechanical`` (kinetic + potential) and ``balance`` (sum of all four
+    minus the initial energy: the integrator's error, zero for an exact ledger).
+    """
+    e = result.energy
+    return {
+        "t": np.asarray(result.t), "kinetic": e.kinetic, "potential": e.potential,
+        "coulomb": e.coulomb, "viscous": e.viscous,
+        "mechanical": e.kinetic + e.potential, "balance": e.balance,
+    }
+
+
+def pulse_death_time(result: Result, threshold: float = 1e-3) -> float:
+    """Time at which the mechanical energy first falls below ``threshold`` times the initial.
+
+    Under Coulomb friction the pulse dies in finite time (a run with ``stop:
+    rest`` ends exactly then: ``result.t_final`` with status AT_REST, returned
+    directly when the threshold is never crossed earlier). Returns ``inf`` if
+    the run ended with more energy left.
+    """
+    e = result.energy
+    mech = e.kinetic + e.potential
+    below = np.flatnonzero(mech <= threshold * e.initial)
+    if below.size:
+        return float(result.t[below[0]])
+    if result.status == Status.AT_REST:
+        return float(result.t_final)
+    return math.inf
+
+
+def penetration_depth(result: Result, tol: float = 0.0) -> int:
+    """Number of granules that ever moved (|v| > tol at some frame, or a final displacement).
+
+    For a pulse dying under friction: how far into the chain it got.
+    """
+    v = np.abs(np.asarray(result.v))
+    moved = np.any(v > tol, axis=0) | (np.asarray(result.x[-1]) != np.asarray(result.x[0]))
+    nz = np.flatnonzero(moved)
+    return int(nz[-1] + 1) if nz.size else 0
+
+
+def summarize(result: Result, model_or_scene=None, *, first: int = 3,
+              pulse: bool = True) -> dict:
+    """Scalar diagnostics of one run (JSON-ready): what ``granular-chain diagnose`` prints.
+
+    Pulse speed and width are included when ``pulse`` is true and the run has
+    enough frames to resolve them; otherwise they are left out with a reason.
+    """
+    N = result.v.shape[1]
+    e = result.energy
+    out = {
+        "status": result.status.name.lower(), "t_final": float(result.t_final),
+        "granules": int(N), "frames": int(result.t.size),
+        "energy": {"initial": float(e.initial), "kinetic": float(e.kinetic[-1]),
+                   "potential": float(e.potential[-1]), "coulomb": float(e.coulomb[-1]),
+                   "viscous": float(e.viscous[-1]),
+                   "max_balance_error_relative": e.balance_error},
+        "backscatter": backscatter(result, model_or_scene, first=min(first, N)),
+        "backscatter_all": backscatter(result, model_or_scene),
+        "pulse_death_time": pulse_death_time(result),
+        "penetration_depth": penetration_depth(result),
+    }
+    if pulse and N >= 8:
+        try:
+            fit = pulse_speed(result)
+            out["pulse"] = fit.as_dict()
+            mid = (fit.first + fit.last) // 2
+            w = pulse_widths_along(result, [mid])[0]
+            out["pulse"]["width_half_max"] = float(w)
+            tp, _ = peak_times(result, [mid])
+            if np.isfinite(tp[0]):
+                fr = int(np.argmin(np.abs(result.t - tp[0])))
+                out["pulse"]["width_count_1pct"] = pulse_width(result, fr, 0.01)["count"]
+                out["pulse"]["width_cos4_fit"] = fitted_width(result, fr)["length"]
+                ref = _reference_chain(model_or_scene)
+                if ref is not None:
+                    vs = nesterenko_speed(fit.v_peak, **ref)
+                    out["pulse"]["nesterenko_speed"] = vs
+                    out["pulse"]["speed_over_nesterenko"] = fit.speed_length / vs
+        except ValueError as exc:
+            out["pulse"] = {"unresolved": str(exc)}
+    if not math.isfinite(out["pulse_death_time"]):
+        out["pulse_death_time"] = None
+    return out
+
+
+# ---------------------------------------------------------------- CLI
+
+
+def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
+    """Register ``granular-chain diagnose RUN_DIR_or_SCENE`` on an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "diagnose", help="pulse speed/width, backscatter, energy ledger of a run or a scene",
+        description="Diagnostics of a finished run (RUN_DIR with trajectory.h5) or of a "
+        "scene file (simulated first). Prints JSON. Pulse speeds need fine frames: "
+        "output.every of a few steps.")
+    p.add_argument("target", metavar="RUN_DIR_or_SCENE")
+    p.add_argument("--set", dest="overrides", action="append", default=[],
+                   metavar="dotted.path=value", help="override a scene field (scene only)")
+    p.add_argument("--first", type=int, default=3,
+                   help="backscatter: the first this many granules (default 3)")
+    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    return p
+
+
+def run_diagnose_command(args) -> int:
+    """Entry point of ``granular-chain diagnose``: 0 ok, 1 run failed, 2 bad input."""
+    from .scene import SceneError, load_scene
+
+    target = Path(args.target)
+    try:
+        if target.is_dir():
+            if not (target / "trajectory.h5").is_file():
+                print(f"granular-chain: {target}: no trajectory.h5 (run with trajectory on)",
+                      file=sys.stderr)
+                return 2
+            from .writers.trajectory import read_trajectory
+            result, scene = read_trajectory(target)
+            if args.overrides:
+                print("granular-chain: --set applies to scene files, not run folders",
+                      file=sys.stderr)
+                return 2
+        else:
+            from .simulate import SimulationError, simulate
+            scene = load_scene(target, args.overrides)
+            try:
+                result = simulate(scene)
+            except SimulationError as exc:
+                print(f"granular-chain: {target}: {exc}", file=sys.stderr)
+                return 2
+    except SceneError as exc:
+        print(f"granular-chain: {exc}", file=sys.stderr)
+        return 2
+    summary = summarize(result, scene, first=args.first)
+    text = json.dumps(summary, indent=2)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
+    return 0 if result.success else 1
