@@ -248,7 +248,7 @@ def cmd_validate(args) -> int:
     except SceneError as exc:
         return _fail(str(exc))
     model = build_model(scene)
-    dt = scene.run.dt if scene.run.dt is not None else default_dt(model)
+    dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
     if scene.run.stepper == "verlet":
         try:
             check_dt(model, dt)

@@ -133,7 +133,8 @@ class Model:
         # largest speed, or the small-oscillation period of a precompressed contact.
         with np.errstate(divide="ignore", invalid="ignore", under="ignore"):
             # Nothing moving: no collision time scale (only precompression sets one).
-            b = (mu * vrel * vrel / k) ** (1.0 / n) / vrel if vmax > 0 else np.full(mu.size, np.inf)
+            # B = (mu v^2/k)^(1/n) / v, written so that a tiny v does not underflow
+            b = (mu / k) ** (1.0 / n) * vrel ** (2.0 / n - 1.0) if vmax > 0 else np.full(mu.size, np.inf)
             k_local = k * (n - 1) * np.where(d0 > 0, d0, 1.0) ** (n - 2)
             b = np.where(d0 > 0, np.minimum(b, 2 * math.pi * np.sqrt(mu / k_local)), b)
         periods = np.where(linear, periods, 3.2 * b)

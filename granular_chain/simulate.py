@@ -37,12 +37,11 @@ class SimulationError(ValueError):
     """A run refused before it started (with the field to change and the limit)."""
 
 
-def default_dt(model: Model) -> float:
-    """1/200 of the shortest contact period (or collision time) in the scene."""
+def default_dt(model: Model, t_end: float = math.inf) -> float:
+    """1/200 of the shortest contact period (or collision time), at most t_end/100."""
     T = model.shortest_period()
-    if not math.isfinite(T):
-        return 1e-2
-    return T / _DEFAULT_STEPS_PER_PERIOD
+    dt = T / _DEFAULT_STEPS_PER_PERIOD if math.isfinite(T) else 1e-2
+    return min(dt, t_end / 100)
 
 
 def check_dt(model: Model, dt: float) -> None:
@@ -132,7 +131,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     feat = model.features
     N = model.count
     T = model.shortest_period()
-    dt = settings.dt if settings.dt is not None else default_dt(model)
+    dt = settings.dt if settings.dt is not None else default_dt(model, settings.t_end)
     if settings.check_dt:
         check_dt(model, dt)
     t_end = settings.t_end

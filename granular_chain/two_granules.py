@@ -21,6 +21,9 @@ from .simulate import simulate
 
 __all__ = ["Outcome", "Collision", "collide", "two_granule_scene"]
 
+# Speeds (scaled, v0 = 1) the event stepper cannot tell from rest: roundoff.
+_EVENT_REST_TOL = 1e-14
+
 
 class Outcome(enum.Enum):
     """How a two-granule collision ends (``.name`` is the public contract)."""
@@ -122,9 +125,9 @@ def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verl
         Event-stepper tolerances (n != 2).
     rest_tol : float, optional
         Speed below which a granule counts as at rest when naming the outcome.
-        Default: 0 for the event stepper (a stopped granule is exactly at rest),
-        dt^2 for Verlet, whose frictionless granule 1 ends at v1 = O(dt^2)
-        instead of exactly 0.
+        Default: 1e-14 for the event stepper (a stuck granule is exactly at
+        rest; a frictionless granule 1 ends at roundoff, ~1e-16, instead of 0),
+        dt^2 for Verlet, whose frictionless granule 1 ends at v1 = O(dt^2).
 
     Returns
     -------
@@ -136,7 +139,7 @@ def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verl
         source="collide()")
     result = simulate(scene, progress=False)
     if rest_tol is None:
-        rest_tol = 0.0 if result.dt is None else result.dt ** 2
+        rest_tol = _EVENT_REST_TOL if result.dt is None else result.dt ** 2
     return classify(result, rest_tol)
 
 
