@@ -16,7 +16,7 @@ import numpy as np
 
 from ._compile import specialised
 from .forces import net_forces, total_potential
-from .laws.friction import kick_tables
+from .laws.friction import drift_tables
 from .model import Model, build_model
 from .result import EnergyLedger, Result, Status
 from .scene import Scene
@@ -31,6 +31,8 @@ _DEFAULT_STEPS_PER_PERIOD = 200
 _DEFAULT_FRAMES = 1000
 _DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
 _UNSTABLE_BALANCE = 1.0
+_KERNEL_ARGS = verlet.verlet_chunk.py_func.__code__.co_varnames[
+    :verlet.verlet_chunk.py_func.__code__.co_argcount]
 
 
 class SimulationError(ValueError):
@@ -54,11 +56,11 @@ def check_dt(model: Model, dt: float) -> None:
             f"use dt <= {T / 50:.3g} for accuracy")
 
 
-def _kick_coefficients(model: Model, h: float):
+def _drift_coefficients(model: Model, dt: float):
     cv = model.gamma * model.inv_mass
     E, P1, P2 = np.empty_like(cv), np.empty_like(cv), np.empty_like(cv)
-    kick_tables(cv, h, E, P1, P2)
-    return cv, E, P1, P2
+    drift_tables(cv, dt, E, P1, P2)
+    return E, P1, P2
 
 
 class _Frames:
@@ -161,8 +163,8 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     active = (c[: max(N - 1, 0)] > 0).astype(np.uint8)
     if active.size == 0:
         active = np.zeros(1, dtype=np.uint8)
-    h = 0.5 * dt
-    cv, E, P1, P2 = _kick_coefficients(model, h)
+    E, P1, P2 = _drift_coefficients(model, dt)
+    du = np.zeros(N)
     ledger = np.zeros(2)
     counts = np.zeros(4, dtype=np.int64)
 
@@ -181,12 +183,15 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
             int(feat.right_wall), stop_mode, u, v, f, c, active, model.d0, model.k,
             model.n, model.walls, model.mass, model.inv_mass, model.eta,
-            model.eta_static, cv, E, P1, P2, dt, 0, stop_contact, ledger, counts]
+            model.eta_static, E, P1, P2, du, dt, 0, stop_contact, ledger, counts]
     kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
+    n_steps_at = _KERNEL_ARGS.index("n_steps")
     try:
         while steps < n_total:
-            args[24] = min(every, n_total - steps)
+            args[n_steps_at] = min(every, n_total - steps)
             taken, code = kernel(*args)
+            if taken == 0:  # a chunk always advances; guard against an endless loop
+                raise RuntimeError("internal error: the Verlet kernel took no step")
             steps += taken
             t_now = steps * dt
             if bar is not None:

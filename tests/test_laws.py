@@ -42,18 +42,12 @@ def test_phi_functions_match_their_definitions():
             tt = 0.5 * t * (xs + 1)
             quad = 0.5 * t * np.sum(ws * (-np.expm1(-c * tt) / c))
             assert friction.phi2(c, t) == pytest.approx(quad, rel=2e-14)
-            if c * t < 30:  # beyond, 1 - exp(-c t) rounds to 1 and t is not recoverable
-                assert friction.phi1_inverse(c, p1) == pytest.approx(t, rel=1e-9)
     assert friction.phi1(0.0, 0.3) == 0.3
     assert friction.phi2(0.0, 0.3) == pytest.approx(0.045, rel=1e-15)
 
 
-def _coulomb(v, F, eta, eta_s, m=1.3, gamma=0.0, h=0.05):
-    c = gamma / m
-    E = math.exp(-c * h)
-    viscous = 1 if gamma > 0 else 0
-    return friction.coulomb_kick(viscous, v, F, eta, eta_s, m, 1 / m, c, E,
-                                 friction.phi1(c, h), friction.phi2(c, h), h)
+def _coulomb(v, F, eta, eta_s, m=1.3, h=0.05):
+    return friction.coulomb_kick(v, F, eta, eta_s, 1 / m, h)
 
 
 def test_coulomb_kick_sliding_stopping_sticking_reversing():
@@ -74,40 +68,33 @@ def test_coulomb_kick_sliding_stopping_sticking_reversing():
     assert code == friction.STOPPED | friction.SLIPPED
     # At rest, below threshold: stays exactly at rest, no work.
     assert _coulomb(0.0, 0.59, 0.5, 0.6) == (0.0, 0.0, 0.0, 0)
-    # Energy theorem: dKE = F * displacement + W.
+    # Energy theorem against an independent fine integration of
+    # m dv/dt = F - eta sgn v with stick (explicit, 2e5 sub-steps, error ~1e-6).
     for v, F in ((0.7, -0.3), (0.01, -2.0), (-0.4, 0.1), (0.0, 1.5)):
-        v1, wc, wv, code = _coulomb(v, F, 0.5, 0.6, gamma=0.8)
-        # independent fine integration of m dv/dt = F - eta sgn v - gamma v with stick
+        v1, wc, wv, code = _coulomb(v, F, 0.5, 0.6)
         n = 200000
         dt = h / n
-        vv, x, w_c, w_v = v, 0.0, 0.0, 0.0
+        vv, w_c = v, 0.0
         for _ in range(n):
             if vv == 0.0 and abs(F) <= 0.6:
                 continue
             s = math.copysign(1.0, vv) if vv != 0.0 else math.copysign(1.0, F)
-            a = (F - 0.5 * s - 0.8 * vv) / m
-            vn = vv + a * dt
+            vn = vv + (F - 0.5 * s) / m * dt
             if vv != 0.0 and vn * vv < 0:
                 vn = 0.0
-            x += 0.5 * (vv + vn) * dt
             w_c += -0.5 * abs(0.5 * (vv + vn)) * dt
-            w_v += -0.8 * (0.5 * (vv + vn)) ** 2 * dt
             vv = vn
         assert v1 == pytest.approx(vv, abs=1e-6)
         assert wc == pytest.approx(w_c, abs=1e-7)
-        assert wv == pytest.approx(w_v, abs=1e-7)
+        assert wv == 0.0
 
 
-def test_viscous_kick_is_the_exponential_solution():
-    m, gamma, h = 2.0, 5.0, 0.3  # gamma h / m = 0.75: explicit damping would be poor here
+def test_viscous_drift_is_the_exponential_solution():
+    m, gamma, dt = 2.0, 50.0, 0.3  # gamma dt / m = 7.5: explicit damping would explode
     c = gamma / m
-    for v, F in ((1.0, 0.0), (0.3, -2.0)):
-        v1, wc, wv, code = friction.viscous_kick(v, F, m, 1 / m, math.exp(-c * h),
-                                                 friction.phi1(c, h), friction.phi2(c, h))
-        vinf = F / gamma
-        exact = vinf + (v - vinf) * math.exp(-c * h)
-        assert v1 == pytest.approx(exact, rel=1e-14)
-        # W = -gamma * integral v^2 dt, closed form
-        a = v - vinf
-        integral = vinf ** 2 * h + 2 * vinf * a * (1 - math.exp(-c * h)) / c + a * a * (1 - math.exp(-2 * c * h)) / (2 * c)
-        assert wv == pytest.approx(-gamma * integral, rel=1e-12)
+    for v in (1.0, -0.3):
+        du, v1, wv = friction.viscous_drift(v, m, math.exp(-c * dt), friction.phi1(c, dt))
+        assert v1 == pytest.approx(v * math.exp(-c * dt), rel=1e-15)
+        assert du == pytest.approx(v * (1 - math.exp(-c * dt)) / c, rel=1e-15)
+        # W = -gamma integral v^2 dt = -(m v^2 / 2)(1 - exp(-2 c dt))
+        assert wv == pytest.approx(-0.5 * m * v * v * (1 - math.exp(-2 * c * dt)), rel=1e-14)
