@@ -34,11 +34,18 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     literal : tuple of int
         Positions of the integer feature codes.
     """
-    sig = tuple(types.literal(a) if i in literal else numba.typeof(a)
-                for i, a in enumerate(args))
-    key = (dispatcher, sig)
+    # A cheap key (numba.typeof on every argument costs more than a small run):
+    # the literal values, and each argument's type, dtype, rank, layout and
+    # writability (what numba.typeof puts in an array's type).
+    key = (dispatcher,) + tuple(
+        a if i in literal else (type(a), getattr(a, "dtype", None), getattr(a, "ndim", None),
+                                (a.flags.c_contiguous, a.flags.writeable)
+                                if hasattr(a, "flags") else None)
+        for i, a in enumerate(args))
     entry = _ENTRIES.get(key)
     if entry is None:
+        sig = tuple(types.literal(a) if i in literal else numba.typeof(a)
+                    for i, a in enumerate(args))
         dispatcher.compile(sig)  # compile, or load from the on-disk cache
         entry = dispatcher.overloads[sig].entry_point
         _ENTRIES[key] = entry

@@ -1,4 +1,4 @@
-"""The ``granular-chain`` command: run | validate | schema | plot | sweep | diagnose.
+"""The ``granular-chain`` command: run | validate | schema | plot | sweep | diagnose | figures.
 
 Exit status: 0 success, 1 a run that ended without success (its outputs say
 why), 2 bad input (one line on stderr naming the file, the field and the
@@ -79,10 +79,12 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--out", default=None,
                       help="folder for the PNGs (default RUN_DIR/plots)")
     from .diagnostics import add_diagnose_parser
+    from .figures import add_figures_parser
     from .sweep import add_sweep_parser
 
     add_sweep_parser(sub)
     add_diagnose_parser(sub)
+    add_figures_parser(sub)
     return p
 
 
@@ -270,6 +272,9 @@ def main(argv=None) -> int:
         return cmd_validate(args)
     if args.command == "plot":
         return cmd_plot(args)
+    if args.command == "figures":
+        from .figures import run_figures_command
+        return run_figures_command(args)
     if args.command == "sweep":
         from .sweep import run_sweep_command
         return run_sweep_command(args)

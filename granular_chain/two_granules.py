@@ -125,9 +125,13 @@ def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verl
         Event-stepper tolerances (n != 2).
     rest_tol : float, optional
         Speed below which a granule counts as at rest when naming the outcome.
-        Default: 1e-14 for the event stepper (a stuck granule is exactly at
-        rest; a frictionless granule 1 ends at roundoff, ~1e-16, instead of 0),
+        Relative to the faster granule: a granule is at rest when
+        ``|v| <= rest_tol * max(|v1|, |v2|)`` (a stuck granule is exactly at
+        rest). Default: 1e-14 for the event stepper at n = 2 (a frictionless
+        granule 1 ends at roundoff instead of 0), 100 rtol for it at other n,
         dt^2 for Verlet, whose frictionless granule 1 ends at v1 = O(dt^2).
+        Relative, so that a collision ending with both speeds tiny (near
+        critical damping, ~1e-20) is still named by their signs.
 
     Returns
     -------
@@ -139,19 +143,25 @@ def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verl
         source="collide()")
     result = simulate(scene, progress=False)
     if rest_tol is None:
-        rest_tol = _EVENT_REST_TOL if result.dt is None else result.dt ** 2
+        if result.dt is not None:
+            rest_tol = result.dt ** 2
+        elif float(n) == 2.0:
+            rest_tol = _EVENT_REST_TOL
+        else:
+            rest_tol = max(_EVENT_REST_TOL, 100 * scene.run.rtol)
     return classify(result, rest_tol)
 
 
 def classify(result: Result, rest_tol: float = 0.0) -> Collision:
     """Turn the engine's result of the two-granule scene into a :class:`Collision`.
 
-    A granule is at rest when ``|v| <= rest_tol``; the velocities reported are
-    the engine's, unrounded.
+    A granule is at rest when ``|v| <= rest_tol * max(|v1|, |v2|)``; the
+    velocities reported are the engine's, unrounded.
     """
     v1, v2 = (float(a) for a in result.v_final)
-    r1 = 0.0 if abs(v1) <= rest_tol else v1
-    r2 = 0.0 if abs(v2) <= rest_tol else v2
+    scale = max(abs(v1), abs(v2))
+    r1 = 0.0 if abs(v1) <= rest_tol * scale else v1
+    r2 = 0.0 if abs(v2) <= rest_tol * scale else v2
     e = result.energy
     ratio = (float(e.kinetic[-1]) + float(e.potential[-1])) / e.initial
     if result.status == Status.SEPARATED:
