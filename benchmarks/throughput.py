@@ -36,14 +36,29 @@ def chain_scene(grains, steps, features, dt=0.01, stepper="verlet"):
     })
 
 
-def measure(grains, steps, features, stepper="verlet"):
-    gc.simulate(chain_scene(grains, 2, features, stepper=stepper), progress=False)  # warm-up
+def _run(scene, initial, seed=1):
+    """simulate(scene); with initial='random' every granule starts with a velocity
+    uniform in [-0.1, 0.1] (grains collide, stick, slip and reverse at random)."""
+    if initial == "struck":
+        return gc.simulate(scene, progress=False)
+    import numpy as np
+    from granular_chain.model import build_model
+    from granular_chain.simulate import _simulate_verlet
+    model = build_model(scene)
+    model.v0[:] = np.random.default_rng(seed).uniform(-0.1, 0.1, model.count)
+    return _simulate_verlet(scene, model, False)
+
+
+def measure(grains, steps, features, stepper="verlet", initial="struck"):
+    if initial != "struck" and stepper != "verlet":
+        raise SystemExit("--initial random is only implemented for --stepper verlet")
+    _run(chain_scene(grains, 2, features, stepper=stepper), initial)  # warm-up
     scene = chain_scene(grains, steps, features, stepper=stepper)
     t0 = time.perf_counter()
-    r = gc.simulate(scene, progress=False)
+    r = _run(scene, initial)
     total = time.perf_counter() - t0
     out = {
-        "grains": grains, "steps": r.steps, "features": features, "stepper": stepper,
+        "grains": grains, "steps": r.steps, "features": features, "stepper": stepper, "initial": initial,
         "seconds": r.wall_time, "seconds_with_setup": total,
         "energy_balance_error": r.energy.balance_error, "status": r.status.name.lower(),
     }
@@ -63,9 +78,12 @@ def main():
     p.add_argument("--steps", type=int, default=10000)
     p.add_argument("--features", choices=sorted(FRICTION), default="frictionless")
     p.add_argument("--stepper", choices=["verlet", "event"], default="verlet")
+    p.add_argument("--initial", choices=["struck", "random"], default="struck",
+                   help="struck: granule 0 at v = 1 (default); random: every granule at a "
+                        "velocity uniform in [-0.1, 0.1] (Verlet only)")
     p.add_argument("--json", action="store_true")
     a = p.parse_args()
-    out = measure(a.grains, a.steps, a.features, a.stepper)
+    out = measure(a.grains, a.steps, a.features, a.stepper, a.initial)
     if a.json:
         print(json.dumps(out))
     else:
