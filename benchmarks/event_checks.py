@@ -3,10 +3,13 @@
     /work/venv/bin/python benchmarks/event_checks.py [--chain N]
 
 Prints: (1) worst relative errors of the n = 2 event stepper against the
-paper's Sec. IIA and Sec. III closed forms, (2) the n = 5/2 contact time error
-against the closed form for several rtol, (3) Verlet against the event answer,
-(4) a chain with friction on every granule: event counts, cost per event and
-agreement with Verlet, (5) the stuck and no_separation outcomes, with timings.
+paper's Sec. IIA and Sec. III closed forms, and near-critical damping
+(gamma^2 -> 8, down to 8 - gamma^2 = 1e-12) against 60-digit mpmath, (2) the
+n = 5/2 contact time error against the closed form for several rtol, (3)
+Verlet against the event answer, (4) a chain with friction on every granule:
+event counts, cost per event and agreement with Verlet; an n = 5/2 Coulomb
+chain against rtol 1e-14; cost vs N for a narrow pulse (N = 1e2..1e5) with
+the growth exponent, (5) the stuck and no_separation outcomes, with timings.
 """
 
 import argparse
@@ -48,6 +51,26 @@ def sec3(gs):
     return out
 
 
+def near_critical():
+    """gamma^2 -> 8: relative errors of t0, v1, v2 against 50-digit mpmath (same float gamma).
+
+    The velocities are ~exp(-gamma t0 / 2): below 1e-308 (subnormal, then 0)
+    once 8 - gamma^2 < ~1.6e-4, where only t0 can be compared.
+    """
+    import mpmath as mp
+    mp.mp.dps = 60
+    for g in (2.82, 2.828, 2.8284, 2.82842, math.sqrt(8 - 1e-8), math.sqrt(8 - 1e-12)):
+        G = mp.mpf(float(g))
+        w = mp.sqrt(8 - G * G) / 2
+        ref = ((1 - mp.exp(G * mp.pi / (2 * w))) * mp.exp(-G * mp.pi / w) / 2,
+               (1 + mp.exp(G * mp.pi / (2 * w))) * mp.exp(-G * mp.pi / w) / 2, mp.pi / w)
+        c = collide(2, gamma=(g, g), stepper="event", t_max=1e9)
+        err = [float(abs(mp.mpf(a) / b - 1)) for a, b in zip((c.v1, c.v2, c.t_separation), ref)]
+        print(f"   near-critical gamma={g:.12g} (8-g^2={8 - g * g:.2e}, t0={float(ref[2]):.4g}, "
+              f"v1={float(ref[0]):.3e}): rel. err v1 {err[0]:.1e} v2 {err[1]:.1e} "
+              f"t0 {err[2]:.1e} ({c.result.steps} modal steps)")
+
+
 def timing(fn, reps=200):
     fn()
     t0 = time.perf_counter()
@@ -76,8 +99,7 @@ def main():
     gs = list(np.linspace(0.05, 2.8, 56))
     res = sec3(gs)
     print("   n=2 Sec III worst rel. error (gamma in [0.05, 2.8]):", f"{max(e for _, e, _ in res):.2e}")
-    for g, e, s in sec3([2.82, 2.828, 2.8284]):
-        print(f"   near-critical gamma={g}: rel. error {e:.2e} ({s} Taylor steps)")
+    near_critical()
     tc = 2 * (5 / 8) ** 0.4 * math.sqrt(math.pi) * Gamma(1.4) / Gamma(0.9)
     print("2. n=5/2 frictionless contact time: rtol, rel. error, steps, kernel us")
     for rt in (1e-6, 1e-8, 1e-10, 1e-12, 1e-13, 1e-14):
@@ -108,9 +130,31 @@ def main():
         r = chain(N, 2.5, 0.01, 0.0, a.t_end, "verlet", h)
         print(f"   verlet dt={h}: max|dv| {np.max(np.abs(r.v_final - ev.v_final)):.2e}, "
               f"max|dx| {np.max(np.abs(r.x_final - ev.x_final)):.2e}, {r.wall_time:.2f} s")
-    for M in (100, 300, 1000, 3000):
-        r = chain(M, 2.5, 0.01, 0.0, 30.0, "event")
-        print(f"   cost vs N (t_end=30): N={M}: {len(r.events)} events, {r.steps} steps, {r.wall_time * 1e3:.1f} ms")
+    print("   n=5/2 chain N=8 eta=0.02 t=6: max|dv| vs rtol=1e-14, ledger balance")
+    d = {"granules": {"count": 8, "velocity": [1.0] + [0.0] * 7,
+                      "friction": {"kinetic": 0.02, "viscous": 0.0}},
+         "contacts": {"exponent": 2.5}, "run": {"stepper": "event", "t_end": 6.0},
+         "output": {"trajectory": False}}
+    runs = {}
+    for rt in (1e-10, 1e-12, 1e-14):
+        d["run"].update(rtol=rt, atol=rt * 1e-2)
+        runs[rt] = simulate(scene_from_dict(d))
+    for rt in (1e-10, 1e-12):
+        print(f"   rtol {rt:.0e}: max|dv| {np.max(np.abs(runs[rt].v_final - runs[1e-14].v_final)):.1e}, "
+              f"ledger {runs[rt].energy.balance_error:.1e}, steps {runs[rt].steps}")
+    Ms = (100, 1000, 10000, 100000)
+    ts = []
+    for M in Ms:
+        best = math.inf
+        for _ in range(3 if M <= 10000 else 1):
+            r = chain(M, 2.5, 0.01, 0.0, 30.0, "event")
+            best = min(best, r.wall_time)
+        fixed = chain(M, 2.5, 0.01, 0.0, 1e-3, "event").wall_time
+        ts.append(best)
+        print(f"   cost vs N (t_end=30): N={M}: {len(r.events)} events, {r.steps} steps, "
+              f"kernel {best * 1e3:.1f} ms (of which one-time O(N) setup/frames ~{fixed * 1e3:.1f} ms)")
+    slope = np.polyfit(np.log(Ms), np.log(ts), 1)[0]
+    print(f"   growth exponent of the kernel time in N: {slope:.2f}")
     c = collide(2, (0.9, 0.9), stepper="event")
     print(f"5. eta=(0.9,0.9): {c.outcome.name}, {c.result.status.name}, t={c.result.t_final:.6g}, "
           f"kernel {c.result.wall_time * 1e6:.1f} us")

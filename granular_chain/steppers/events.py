@@ -100,7 +100,7 @@ def simulate_events(scene, model: Model) -> Result:
         L = float(np.max(model.gamma * model.inv_mass)) + 2.0 * math.sqrt(
             kmax * float(np.max(model.inv_mass)))
         st[K.S_HCAP] = LINEAR_STEP / L if L > 0 else 0.0
-    ist = np.zeros(16, dtype=np.int64)
+    ist = np.zeros(20, dtype=np.int64)
     ist[K.I_WATCH] = settings.stop_contact + 1 if N > 1 else -10
     ist[K.I_STOPSEP] = int("separation" in stops)
     ist[K.I_STOPREST] = int("rest" in stops)
@@ -145,7 +145,9 @@ def simulate_events(scene, model: Model) -> Result:
     args = [law, coulomb, viscous, P, rtol, atol, st, ist, model.x0, u, v, dl, closed, present,
             slide, csl, kc, nexp, mass, model.eta, model.eta_static, model.gamma, U, V, D, Fc,
             Q, wrk, mov, act, cand, cflag, gflag, old_c, old_s, ctype, cidx, croot,
-            fr_t, fr_x, fr_v, fr_f, fr_e, ev_t, ev_k, ev_i, counts]
+            fr_t, fr_x, fr_v, fr_f, fr_e, ev_t, ev_k, ev_i, counts,
+            np.zeros(K.EM.NPAR), np.zeros(2, dtype=np.int64), np.zeros(N, dtype=np.int8),
+            np.zeros(N, dtype=np.int64)]
     kernel = specialised(K.run_events, tuple(args), (0, 1, 2))
     start = time.perf_counter()
     while True:

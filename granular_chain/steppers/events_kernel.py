@@ -38,8 +38,16 @@ state (:func:`settle`), which also resolves ties (a contact touching with zero
 relative velocity, a granule stopping exactly at the static threshold) from
 the first non-vanishing derivative.
 
-Only moving granules (sliding or frictionless) and the contacts touching them
-enter a step; stuck granules cost nothing until a neighbour moves.
+Only the moving set (sliding granules, frictionless granules that move or
+have a closed contact), the contacts touching it and the stuck granules next
+to those enter a step. The moving set is kept incrementally and ``settle``
+works on a window around each event batch, so steps and events cost
+O(active), not O(N); the rest of the chain costs nothing until a neighbour's
+event reaches it.
+
+N = 2 with a closed linear contact is evaluated in closed form instead
+(:mod:`granular_chain.steppers.events_modal`): exact near critical damping,
+where a stepper's rounding grows like s (t0 - s).
 """
 
 import math
@@ -50,6 +58,7 @@ from numba import literally
 
 from ..laws.contact import LAW_LINEAR, contact_energy, contact_force
 from ..laws.friction import phi1
+from . import events_modal as EM
 
 # Return codes of run_events.
 C_T_END = 0
@@ -71,7 +80,7 @@ S_T, S_TEND, S_OUTDT, S_WC, S_WV, S_LASTEV, S_JUMPFROM, S_HCAP, S_TLO = range(9)
 # relative error g*1e-13 in a velocity decaying like exp(-g t).
 # Int state slots.
 (I_STEPS, I_NEV, I_NFR, I_WATCH, I_STOPSEP, I_STOPREST, I_MAXEV, I_MAXSTEPS, I_STARTED,
- I_WATCHED, I_ZENO, I_FRAMEEV, I_JUMPED, I_FRAMEK, I_EVERY, I_BATCHES) = range(16)
+ I_WATCHED, I_ZENO, I_FRAMEEV, I_JUMPED, I_FRAMEK, I_EVERY, I_BATCHES, I_NM) = range(17)
 
 ZENO_BATCHES = 200  # consecutive event batches in a vanishing time window = Zeno
 SAMPLES = 16
@@ -281,8 +290,19 @@ def _acc(law, closed, present, dl, kc, nexp, v, slide, mass, eta, gamma, i, skip
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _save_old(closed, slide, old_c, old_s, a, b):
+    """Save the modes of granules a..b and contacts a..b+1 (clipped)."""
+    N = slide.size
+    for i in range(max(a, 0), min(b, N - 1) + 1):
+        old_s[i] = slide[i]
+    for j in range(max(a, 0), min(b + 1, N) + 1):
+        old_c[j] = closed[j]
+
+
+@numba.njit(cache=True, error_model="numpy")
 def settle(law, t, v, dl, closed, present, slide, csl, kc, nexp, mass, eta, eta_s, gamma,
-           old_c, old_s, ev_t, ev_k, ev_i, ist, counts, watch_flag, forced, forced_c):
+           old_c, old_s, ev_t, ev_k, ev_i, ist, counts, watch_flag, forced, forced_c,
+           win):
     """Re-derive the mode from the state at an event and log what changed.
 
     Contacts: closed iff delta > 0, or delta = 0 and the first non-zero
@@ -291,15 +311,22 @@ def settle(law, t, v, dl, closed, present, slide, csl, kc, nexp, mass, eta, eta_
     if |F| <= eta_static (slip at |F| = eta_static only if |F| is growing),
     else slide along F. Iterated to a fixed point (modes depend on each other
     only through these ties). Returns 1 if the watched contact opened.
+
+    Only the window ``win = [lo, hi]`` of granules (contacts lo..hi+1) is
+    examined: modes change only next to an event, and a change propagates to
+    its neighbours only, so the window grows by one on a side where something
+    changed at its edge. On return ``win`` holds the final window (the caller
+    updates its active set there). Cost: the window, not N.
     """
     N = v.size
-    for j in range(N + 1):
-        old_c[j] = closed[j]
-    for i in range(N):
-        old_s[i] = slide[i]
-    for _ in range(8):
+    lo = max(win[0], 0)
+    hi = min(win[1], N - 1)
+    _save_old(closed, slide, old_c, old_s, lo, hi)
+    for _ in range(64):
         changed = False
-        for j in range(N + 1):
+        nlo = lo
+        nhi = hi
+        for j in range(lo, hi + 2):
             if present[j] == 0:
                 continue
             d = dl[j]
@@ -328,7 +355,9 @@ def settle(law, t, v, dl, closed, present, slide, csl, kc, nexp, mass, eta, eta_
             if new != closed[j]:
                 closed[j] = new
                 changed = True
-        for i in range(N):
+                nlo = min(nlo, j - 2)
+                nhi = max(nhi, j + 1)
+        for i in range(lo, hi + 1):
             if csl[i] == 0:
                 continue
             if v[i] > 0.0:
@@ -358,11 +387,26 @@ def settle(law, t, v, dl, closed, present, slide, csl, kc, nexp, mass, eta, eta_
             if new != slide[i]:
                 slide[i] = new
                 changed = True
+                nlo = min(nlo, i - 1)
+                nhi = max(nhi, i + 1)
+        nlo = max(nlo, 0)
+        nhi = min(nhi, N - 1)
+        # newly included granules and contacts (untouched so far): save their modes
+        for i in range(nlo, lo):
+            old_s[i] = slide[i]
+            old_c[i] = closed[i]
+        for i in range(hi + 1, nhi + 1):
+            old_s[i] = slide[i]
+            old_c[i + 1] = closed[i + 1]
+        lo = nlo
+        hi = nhi
         if not changed:
             break
+    win[0] = lo
+    win[1] = hi
     opened = 0
     nev = ist[I_NEV]
-    for j in range(N + 1):
+    for j in range(lo, hi + 2):
         if closed[j] != old_c[j]:
             kind = EV_CLOSE if closed[j] == 1 else EV_OPEN
             ev_t[nev] = t
@@ -375,7 +419,7 @@ def settle(law, t, v, dl, closed, present, slide, csl, kc, nexp, mass, eta, eta_
                     ist[I_WATCHED] = 1
                 elif ist[I_WATCHED] == 1:
                     opened = 1
-    for i in range(N):
+    for i in range(lo, hi + 1):
         if csl[i] == 0 or v[i] != 0.0:
             continue
         if (old_s[i] == 1 or old_s[i] == -1) and forced[i] == 3:
@@ -514,9 +558,177 @@ def _try_jump(law, coulomb, st, ist, u, v, dl, closed, present, csl, kc, mass, g
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _all_at_rest(law, v, dl, closed, present, slide, csl, kc, nexp):
-    N = v.size
-    for i in range(N):
+def _modal_setup(coulomb, viscous, pm, v, dl, slide, csl, kc, mass, eta, eta_s, gamma):
+    """N = 2, n = 2, closed contact: fill the modal record (events_modal) if the
+    mode is covered (see events_modal.setup)."""
+    if dl[1] < 0.0:
+        return False
+    g0 = gamma[0] if viscous else 0.0
+    g1 = gamma[1] if viscous else 0.0
+    e0 = eta[0] if coulomb else 0.0
+    e1 = eta[1] if coulomb else 0.0
+    s0 = slide[0]
+    s1 = slide[1]
+    es = 0.0
+    if s0 != 0 and s1 == 0:
+        es = eta_s[1]
+    elif s0 == 0 and s1 != 0:
+        es = eta_s[0]
+    return EM.setup(pm, mass[0], mass[1], g0, g1, kc[1], e0, e1, s0, s1, dl[1], v[0], v[1],
+                    es)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _modal_energy(pm, mass, kc, d, v0, v1, du0, du1, slide, eta, coulomb):
+    e = 0.5 * mass[0] * v0 * v0 + 0.5 * mass[1] * v1 * v1
+    if d > 0.0:
+        e += 0.5 * kc[1] * d * d
+    wc = 0.0
+    if coulomb:
+        if slide[0] == 1 or slide[0] == -1:
+            wc += eta[0] * slide[0] * du0
+        if slide[1] == 1 or slide[1] == -1:
+            wc += eta[1] * slide[1] * du1
+    return e, wc
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _modal_step(law, coulomb, viscous, pm, st, ist, x0, u, v, dl, closed, present, slide, kc,
+                nexp, mass, eta, ctype, cidx, croot, fr_t, fr_x, fr_v, fr_f, fr_e):
+    """One step of the exact modal solution (events_modal) from the mode's start.
+
+    Returns (code, event, tau_e, ncand): code >= 0 ends the run; event = 1 when
+    the step ended at the earliest candidate root (ctype/cidx/croot filled).
+    Viscous work = energy lost - Coulomb work (both exact in the mode), so
+    the ledger closes by the energy theorem within the mode.
+    """
+    t = st[S_T]
+    tlo = st[S_TLO]
+    t_end = st[S_TEND]
+    rem = (t_end - t) - tlo
+    h = rem
+    s0 = slide[0]
+    s1 = slide[1]
+    sl0 = coulomb and (s0 == 1 or s0 == -1)
+    sl1 = coulomb and (s1 == 1 or s1 == -1)
+    case = pm[EM.P_CASE]
+    slipc = case != 0.0
+    sampled = pm[EM.P_B] != 0.0 or sl0 or sl1 or slipc
+    nsamp = 0
+    if sampled:
+        dts = EM.sample_step(pm)
+        h = min(h, 256.0 * dts)
+        nsamp = max(1, int(math.ceil(h / dts)))
+    bh = math.inf
+    bl = 0.0
+    if pm[EM.P_B] == 0.0:
+        rh, rl = EM.open_root_analytic(pm, h)
+    else:
+        rh, rl = EM.first_root(pm, 0, h, nsamp)
+    ctype[0] = EV_OPEN
+    cidx[0] = 1
+    croot[0] = rh + rl
+    ncand = 1
+    if rh < bh or (rh == bh and rl < bl):
+        bh, bl = rh, rl
+    for q in range(3):
+        if q == 0 and not sl0:
+            continue
+        if q == 1 and not sl1:
+            continue
+        if q == 2 and not slipc:
+            continue
+        rh, rl = EM.first_root(pm, q + 1, h, nsamp)
+        ctype[ncand] = EV_SLIP if q == 2 else EV_STOP
+        cidx[ncand] = q if q < 2 else (1 if case == 1.0 else 0)
+        croot[ncand] = rh + rl
+        ncand += 1
+        if rh < bh or (rh == bh and rl < bl):
+            bh, bl = rh, rl
+    event = bh + bl <= h
+    if event:
+        th, tl = bh, bl
+    else:
+        th, tl = h, 0.0
+    s_, e_ = EM.two_sum(t, th)
+    t_new, t_lo_new = EM.two_sum(s_, e_ + tlo + tl)
+    if not event and h == rem:
+        t_new = t_end
+        t_lo_new = 0.0
+    e0, _ = _modal_energy(pm, mass, kc, dl[1], v[0], v[1], 0.0, 0.0, slide, eta, coulomb)
+    out_dt = st[S_OUTDT]
+    if out_dt > 0.0:
+        while True:
+            tf = ist[I_FRAMEK] * out_dt
+            if tf > t_new or tf > t_end:
+                break
+            if ist[I_NFR] >= fr_t.size - 3:
+                return C_BUFFER, 0, 0.0, 0
+            x = (tf - t) - tlo
+            d, w, v0, v1, du0, du1 = EM.state(pm, x, 0.0)
+            ex, wc = _modal_energy(pm, mass, kc, d, v0, v1, du0, du1, slide, eta, coulomb)
+            wv = (e0 - ex - wc) if viscous else 0.0
+            su0, su1, sv0, sv1, sd = u[0], u[1], v[0], v[1], dl[1]
+            u[0] += du0
+            u[1] += du1
+            v[0] = v0
+            v[1] = v1
+            dl[1] = d
+            _record(law, tf, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
+                    fr_t, fr_x, fr_v, fr_f, fr_e, wc, wv)
+            u[0], u[1], v[0], v[1], dl[1] = su0, su1, sv0, sv1, sd
+            ist[I_FRAMEK] += 1
+    d, w, v0, v1, du0, du1 = EM.state(pm, th, tl)
+    ex, wc = _modal_energy(pm, mass, kc, d, v0, v1, du0, du1, slide, eta, coulomb)
+    st[S_WC] += wc
+    if viscous:
+        st[S_WV] += e0 - ex - wc
+    u[0] += du0
+    u[1] += du1
+    v[0] = v0
+    v[1] = v1
+    dl[1] = d
+    st[S_T] = t_new
+    st[S_TLO] = t_lo_new
+    ist[I_STEPS] += 1
+    if not (math.isfinite(u[0]) and math.isfinite(u[1]) and math.isfinite(v[0])
+            and math.isfinite(v[1]) and math.isfinite(d)):
+        return C_NONFINITE, 0, 0.0, 0
+    if not event:
+        if t_new >= t_end:
+            _record(law, t_end, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
+                    fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
+            return C_T_END, 0, 0.0, 0
+        return -1, 0, 0.0, 0
+    return -1, 1, bh + bl, ncand
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy")
+def _is_moving(i, v, closed, present, slide):
+    """Member of the moving set: sliding, or frictionless and not at rest
+    force-free (v != 0 or a closed contact). A frictionless granule at rest
+    with open contacts stays at rest until one of them closes, which is an
+    event of its moving neighbour, so it costs nothing until then."""
+    s = slide[i]
+    if s == 1 or s == -1:
+        return 1
+    if s == 0:
+        return 0
+    if v[i] != 0.0:
+        return 1
+    if present[i] == 1 and closed[i] == 1:
+        return 1
+    if present[i + 1] == 1 and closed[i + 1] == 1:
+        return 1
+    return 0
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _all_at_rest(law, v, dl, closed, present, slide, csl, kc, nexp, mov, nm):
+    # Granules outside the moving set are stuck (v = 0 exactly): only the
+    # moving set needs a look.
+    for q in range(nm):
+        i = mov[q]
         if v[i] != 0.0:
             return False
         if csl[i] == 0:
@@ -531,7 +743,7 @@ def _all_at_rest(law, v, dl, closed, present, slide, csl, kc, nexp):
 def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, closed, present,
                slide, csl, kc, nexp, mass, eta, eta_s, gamma, U, V, D, Fc, Q, wrk,
                mov, act, cand, cflag, gflag, old_c, old_s, ctype, cidx, croot,
-               fr_t, fr_x, fr_v, fr_f, fr_e, ev_t, ev_k, ev_i, counts):
+               fr_t, fr_x, fr_v, fr_f, fr_e, ev_t, ev_k, ev_i, counts, pm, win, am, pos):
     """Advance the event-driven motion until a stop, t_end or a full buffer.
 
     All state lives in the arrays passed in, so the driver can grow the frame
@@ -550,13 +762,26 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
         if fr_cap - ist[I_NFR] < 4 or ev_cap - ist[I_NEV] < 2 * N + 4:
             return C_BUFFER
         ist[I_STARTED] = 1
+        win[0] = 0
+        win[1] = N - 1
         settle(law, st[S_T], v, dl, closed, present, slide, csl, kc, nexp, mass, eta, eta_s,
-               gamma, old_c, old_s, ev_t, ev_k, ev_i, ist, counts, watch, gflag, cflag)
+               gamma, old_c, old_s, ev_t, ev_k, ev_i, ist, counts, watch, gflag, cflag, win)
+        # The moving set (_is_moving) is kept incrementally from here on:
+        # mov[0:nm] its members, pos[i] the place of i in it, am[i] membership.
+        nm0 = 0
+        for i in range(N):
+            am[i] = 0
+            if _is_moving(i, v, closed, present, slide) == 1:
+                am[i] = 1
+                pos[i] = nm0
+                mov[nm0] = i
+                nm0 += 1
+        ist[I_NM] = nm0
         _record(law, st[S_T], x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
                 fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
         ist[I_FRAMEK] = 1
         if ist[I_STOPREST] == 1 and _all_at_rest(law, v, dl, closed, present, slide, csl,
-                                                  kc, nexp):
+                                                  kc, nexp, mov, ist[I_NM]):
             return C_AT_REST
         if _try_jump(law, coulomb, st, ist, u, v, dl, closed, present, csl, kc, mass, gamma):
             _record(law, st[S_T], x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
@@ -576,272 +801,319 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
             return C_MAX_STEPS
         if fr_cap - ist[I_NFR] < 4 or ev_cap - ist[I_NEV] < 2 * N + 4:
             return C_BUFFER
-        # --- the moving set and the contacts and stuck granules it touches
-        nm = 0
-        for i in range(N):
-            gflag[i] = 0
-            if slide[i] != 0:
-                mov[nm] = i
-                nm += 1
-        for j in range(N + 1):
-            cflag[j] = 0
-        for q in range(nm):
-            i = mov[q]
-            cflag[i] = 1
-            cflag[i + 1] = 1
-        for j in range(N + 1):
-            if cflag[j] == 1 and present[j] == 1:
-                if j >= 1 and slide[j - 1] == 0:
-                    gflag[j - 1] = 1
-                if j < N and slide[j] == 0:
-                    gflag[j] = 1
-        nc = 0
-        for i in range(N):
-            if gflag[i] == 1:
-                cand[nc] = i
-                nc += 1
-                cflag[i] = 1
-                cflag[i + 1] = 1
-        na = 0
-        for j in range(N + 1):
-            if cflag[j] == 1 and present[j] == 1:
-                act[na] = j
-                na += 1
-        if nm == 0:
-            # Nothing moves and nothing can start moving: the state is final.
-            _record(law, t_end, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
-                    fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
-            st[S_JUMPFROM] = t
-            st[S_T] = t_end
-            st[S_TLO] = 0.0
-            ist[I_JUMPED] = 2
-            return C_T_END
-        # --- Taylor series of the mode
-        vscale = 0.0
-        for q in range(nm):
-            vscale = max(vscale, abs(v[mov[q]]))
-        tol_v = rtol * vscale + atol
-        for q in range(nm):
-            i = mov[q]
-            U[i, 0] = u[i]
-            V[i, 0] = v[i]
-        for q in range(na):
-            j = act[q]
-            D[j, 0] = dl[j]
-            wrk[j] = 0.0  # force-on flag
-            if closed[j] == 1:
-                if linear:
-                    wrk[j] = 1.0
-                elif dl[j] > 0.0:
-                    vl = v[j - 1] if j >= 1 else 0.0
-                    vr = v[j] if j < N else 0.0
-                    aexp = nexp[j]
-                    if kc[j] * dl[j] ** aexp > 0.1 * aexp * abs(vl - vr) * tol_v:
-                        wrk[j] = 1.0
-            Fc[j, 0] = contact_force(law, dl[j], kc[j], nexp[j]) if wrk[j] == 1.0 else 0.0
-        for k in range(P):
-            if k >= 1:
-                for q in range(na):
-                    j = act[q]
-                    if wrk[j] == 1.0:
-                        if linear:
-                            Fc[j, k] = kc[j] * D[j, k]
-                        else:
-                            al = nexp[j] - 1.0
-                            s = 0.0
-                            for ii in range(k):
-                                s += (al * (k - ii) - ii) * D[j, k - ii] * Fc[j, ii]
-                            Fc[j, k] = s / (k * D[j, 0])
-                    else:
-                        Fc[j, k] = 0.0
+        modal = False
+        if linear and N == 2 and present[0] == 0 and present[2] == 0 and closed[1] == 1:
+            modal = _modal_setup(coulomb, viscous, pm, v, dl, slide, csl, kc, mass, eta,
+                                 eta_s, gamma)
+        if modal:
+            for j in range(N + 1):
+                cflag[j] = 0
+            for i in range(N):
+                gflag[i] = 0
+            code_m, ev_m, tau_m, nc_m = _modal_step(
+                law, coulomb, viscous, pm, st, ist, x0, u, v, dl, closed, present, slide, kc,
+                nexp, mass, eta, ctype, cidx, croot, fr_t, fr_x, fr_v, fr_f, fr_e)
+            if code_m >= 0:
+                return code_m
+            if ev_m == 0:
+                continue
+            tau_e = tau_m
+            ncand = nc_m
+            t_new = st[S_T]
+        else:
+            # --- the moving set and the contacts and stuck granules it touches,
+            # built from the incrementally kept moving set: O(active), not O(N).
+            nm = ist[I_NM]
+            na = 0
+            nc = 0
             for q in range(nm):
                 i = mov[q]
-                a = Fc[i, k] - Fc[i + 1, k]
-                if viscous:
-                    a -= gamma[i] * V[i, k]
-                if coulomb:
-                    if k == 0 and (slide[i] == 1 or slide[i] == -1):
-                        a -= eta[i] * slide[i]
-                V[i, k + 1] = a / (mass[i] * (k + 1))
-                U[i, k + 1] = V[i, k] / (k + 1)
+                for j in range(i, i + 2):
+                    if present[j] == 1 and cflag[j] == 0:
+                        cflag[j] = 1
+                        act[na] = j
+                        na += 1
+            na1 = na
+            for q in range(na1):
+                j = act[q]
+                for i in range(j - 1, j + 1):
+                    if i >= 0 and i < N and slide[i] == 0 and gflag[i] == 0:
+                        gflag[i] = 1
+                        cand[nc] = i
+                        nc += 1
+            for q in range(nc):
+                i = cand[q]
+                for j in range(i, i + 2):
+                    if present[j] == 1 and cflag[j] == 0:
+                        cflag[j] = 1
+                        act[na] = j
+                        na += 1
+            # the flags only de-duplicate: clear them for the event marks below
+            for q in range(na):
+                cflag[act[q]] = 0
+            for q in range(nc):
+                gflag[cand[q]] = 0
+            if nm == 0:
+                # Nothing moves and nothing can start moving: the state is final.
+                _record(law, t_end, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
+                        fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
+                st[S_JUMPFROM] = t
+                st[S_T] = t_end
+                st[S_TLO] = 0.0
+                ist[I_JUMPED] = 2
+                return C_T_END
+            # --- Taylor series of the mode
+            vscale = 0.0
+            for q in range(nm):
+                vscale = max(vscale, abs(v[mov[q]]))
+            tol_v = rtol * vscale + atol
+            for q in range(nm):
+                i = mov[q]
+                U[i, 0] = u[i]
+                V[i, 0] = v[i]
             for q in range(na):
                 j = act[q]
-                vl = 0.0
-                vr = 0.0
-                if j >= 1 and slide[j - 1] != 0:
-                    vl = V[j - 1, k]
-                if j < N and slide[j] != 0:
-                    vr = V[j, k]
-                D[j, k + 1] = (vl - vr) / (k + 1)
-        for q in range(na):
-            j = act[q]
-            if wrk[j] == 1.0:
-                if linear:
-                    Fc[j, P] = kc[j] * D[j, P]
+                D[j, 0] = dl[j]
+                wrk[j] = 0.0  # force-on flag
+                if closed[j] == 1:
+                    if linear:
+                        wrk[j] = 1.0
+                    elif dl[j] > 0.0:
+                        vl = v[j - 1] if j >= 1 else 0.0
+                        vr = v[j] if j < N else 0.0
+                        aexp = nexp[j]
+                        if kc[j] * dl[j] ** aexp > 0.1 * aexp * abs(vl - vr) * tol_v:
+                            wrk[j] = 1.0
+                Fc[j, 0] = contact_force(law, dl[j], kc[j], nexp[j]) if wrk[j] == 1.0 else 0.0
+            for k in range(P):
+                if k >= 1:
+                    for q in range(na):
+                        j = act[q]
+                        if wrk[j] == 1.0:
+                            if linear:
+                                Fc[j, k] = kc[j] * D[j, k]
+                            else:
+                                al = nexp[j] - 1.0
+                                s = 0.0
+                                for ii in range(k):
+                                    s += (al * (k - ii) - ii) * D[j, k - ii] * Fc[j, ii]
+                                Fc[j, k] = s / (k * D[j, 0])
+                        else:
+                            Fc[j, k] = 0.0
+                for q in range(nm):
+                    i = mov[q]
+                    a = Fc[i, k] - Fc[i + 1, k]
+                    if viscous:
+                        a -= gamma[i] * V[i, k]
+                    if coulomb:
+                        if k == 0 and (slide[i] == 1 or slide[i] == -1):
+                            a -= eta[i] * slide[i]
+                    V[i, k + 1] = a / (mass[i] * (k + 1))
+                    U[i, k + 1] = V[i, k] / (k + 1)
+                for q in range(na):
+                    j = act[q]
+                    vl = 0.0
+                    vr = 0.0
+                    if j >= 1 and am[j - 1] == 1:
+                        vl = V[j - 1, k]
+                    if j < N and am[j] == 1:
+                        vr = V[j, k]
+                    D[j, k + 1] = (vl - vr) / (k + 1)
+            for q in range(na):
+                j = act[q]
+                if wrk[j] == 1.0:
+                    if linear:
+                        Fc[j, P] = kc[j] * D[j, P]
+                    else:
+                        al = nexp[j] - 1.0
+                        s = 0.0
+                        for ii in range(P):
+                            s += (al * (P - ii) - ii) * D[j, P - ii] * Fc[j, ii]
+                        Fc[j, P] = s / (P * D[j, 0])
                 else:
-                    al = nexp[j] - 1.0
-                    s = 0.0
-                    for ii in range(P):
-                        s += (al * (P - ii) - ii) * D[j, P - ii] * Fc[j, ii]
-                    Fc[j, P] = s / (P * D[j, 0])
-            else:
-                Fc[j, P] = 0.0
-        # --- step size (Jorba & Zou: last two terms below the tolerance). For
-        # n = 2 also h <= S_HCAP = 0.5/L, L a bound on the mode's eigenvalues: the
-        # series of a decaying exponential e^(-L h) has terms up to e^(L h), and
-        # keeping L h <= 1/2 keeps their cancellation below a factor 3.
-        tlo = st[S_TLO]
-        h = (t_end - t) - tlo
-        if st[S_HCAP] > 0.0:
-            h = min(h, st[S_HCAP])
-        for q in range(nm + na):
-            if q < nm:
-                row = V[mov[q]]
-            else:
-                row = D[act[q - nm]]
-            sc = max(abs(row[0]), abs(row[1]), abs(row[2]))
-            if sc == 0.0:
-                for k in range(P + 1):
-                    sc = max(sc, abs(row[k]))
-            tl = rtol * sc + (0.0 if linear else atol)
-            if tl <= 0.0:
-                continue
-            if row[P] != 0.0:
-                h = min(h, (tl / abs(row[P])) ** (1.0 / P))
-            if row[P - 1] != 0.0:
-                h = min(h, (tl / abs(row[P - 1])) ** (1.0 / (P - 1)))
-        if not (h > 0.0) or not math.isfinite(h):
-            return C_NONFINITE
-        # --- events: first root of every candidate
-        tau_e = math.inf
-        ncand = 0
-        for q in range(na):
-            j = act[q]
-            r = math.inf
-            if closed[j] == 1:
-                r = first_root(D[j], P, -1.0, 0.0, h)
-                ctype[ncand] = EV_OPEN
-                cidx[ncand] = j
-                croot[ncand] = r
-                ncand += 1
-                if wrk[j] == 0.0 and not linear and D[j, 1] > 0.0:
-                    # closing contact still below delta_on: switch the force on later
-                    vl = v[j - 1] if j >= 1 else 0.0
-                    vr = v[j] if j < N else 0.0
-                    aexp = nexp[j]
-                    don = (0.1 * aexp * abs(vl - vr) * tol_v / kc[j]) ** (1.0 / aexp)
-                    r2 = first_root(D[j], P, 1.0, 1.5 * don, h)
-                    ctype[ncand] = -1
-                    cidx[ncand] = j
-                    croot[ncand] = r2
-                    ncand += 1
-                    r = min(r, r2)
-            else:
-                r = first_root(D[j], P, 1.0, 0.0, h)
-                ctype[ncand] = EV_CLOSE
-                cidx[ncand] = j
-                croot[ncand] = r
-                ncand += 1
-            tau_e = min(tau_e, r)
-        if coulomb:
-            for q in range(nm):
-                i = mov[q]
-                if slide[i] == 1 or slide[i] == -1:
+                    Fc[j, P] = 0.0
+            # --- step size (Jorba & Zou: last two terms below the tolerance). For
+            # n = 2 also h <= S_HCAP = 0.5/L, L a bound on the mode's eigenvalues: the
+            # series of a decaying exponential e^(-L h) has terms up to e^(L h), and
+            # keeping L h <= 1/2 keeps their cancellation below a factor 3.
+            tlo = st[S_TLO]
+            h = (t_end - t) - tlo
+            if st[S_HCAP] > 0.0:
+                h = min(h, st[S_HCAP])
+            # Rows under control: velocities, overlaps and (n != 2) the contact
+            # forces themselves. The forces are the slip events' functions; left
+            # uncontrolled, their truncation error is ~P tol/h (V only carries
+            # their integral), which put slip times off by 4e-12 at rtol 1e-12 and
+            # split one slip into a spurious slip/stop/slip triple.
+            nrow = nm + na
+            if not linear:
+                nrow += na
+            for q in range(nrow):
+                if q < nm:
+                    row = V[mov[q]]
+                elif q < nm + na:
+                    row = D[act[q - nm]]
+                else:
+                    jf = act[q - nm - na]
+                    if wrk[jf] == 0.0:
+                        continue
+                    row = Fc[jf]
+                sc = max(abs(row[0]), abs(row[1]), abs(row[2]))
+                if sc == 0.0:
                     for k in range(P + 1):
-                        Q[0, k] = V[i, k]
-                    if V[i, 0] == 0.0 and slide[i] * V[i, 1] < 0.0 and (
-                            abs(V[i, 1]) * mass[i] <= max(1e-13, 10.0 * rtol) * eta_s[i]):
-                        # Just slipped at |F| = eta_s = eta: the initial
-                        # deceleration is the error of F at the located root
-                        # (roundoff, or the series tolerance), not physics.
-                        Q[0, 1] = 0.0
-                    r = first_root(Q[0], P, -1.0 * slide[i], 0.0, h)
-                    ctype[ncand] = EV_STOP
+                        sc = max(sc, abs(row[k]))
+                tl = rtol * sc + (0.0 if linear else atol)
+                if tl <= 0.0:
+                    continue
+                if row[P] != 0.0:
+                    h = min(h, (tl / abs(row[P])) ** (1.0 / P))
+                if row[P - 1] != 0.0:
+                    h = min(h, (tl / abs(row[P - 1])) ** (1.0 / (P - 1)))
+            if not (h > 0.0) or not math.isfinite(h):
+                return C_NONFINITE
+            # --- events: first root of every candidate
+            tau_e = math.inf
+            ncand = 0
+            for q in range(na):
+                j = act[q]
+                r = math.inf
+                if closed[j] == 1:
+                    r = first_root(D[j], P, -1.0, 0.0, h)
+                    ctype[ncand] = EV_OPEN
+                    cidx[ncand] = j
+                    croot[ncand] = r
+                    ncand += 1
+                    grow = D[j, 1] > 0.0 or (D[j, 1] == 0.0 and D[j, 2] > 0.0)
+                    if wrk[j] == 0.0 and not linear and grow:
+                        # closing contact still below delta_on: switch the force on later
+                        aexp = nexp[j]
+                        if D[j, 1] > 0.0:
+                            vl = v[j - 1] if j >= 1 else 0.0
+                            vr = v[j] if j < N else 0.0
+                            don = 1.5 * (0.1 * aexp * abs(vl - vr) * tol_v / kc[j]) ** (
+                                1.0 / aexp)
+                        else:
+                            # Closing from rest (a granule slipped into a touching
+                            # neighbour): w = 0 and delta = a tau^2/2, so the rule above
+                            # would never switch the force on. The force left out
+                            # until delta reaches don has impulse
+                            # k don^(n-1) sqrt(2 don/a)/(2n - 1); keep it below tol/10.
+                            # (delta^(n-1) = (a/2)^(n-1) tau^(2n-2) is analytic here.)
+                            acc = 2.0 * D[j, 2]
+                            don = (0.1 * tol_v * (2.0 * aexp - 1.0) * math.sqrt(0.5 * acc)
+                                   / kc[j]) ** (1.0 / (aexp - 0.5))
+                        r2 = first_root(D[j], P, 1.0, don, h)
+                        ctype[ncand] = -1
+                        cidx[ncand] = j
+                        croot[ncand] = r2
+                        ncand += 1
+                        r = min(r, r2)
+                else:
+                    r = first_root(D[j], P, 1.0, 0.0, h)
+                    ctype[ncand] = EV_CLOSE
+                    cidx[ncand] = j
+                    croot[ncand] = r
+                    ncand += 1
+                tau_e = min(tau_e, r)
+            if coulomb:
+                for q in range(nm):
+                    i = mov[q]
+                    if slide[i] == 1 or slide[i] == -1:
+                        for k in range(P + 1):
+                            Q[0, k] = V[i, k]
+                        if V[i, 0] == 0.0 and slide[i] * V[i, 1] < 0.0 and (
+                                abs(V[i, 1]) * mass[i] <= max(1e-13, 10.0 * rtol) * eta_s[i]):
+                            # Just slipped at |F| = eta_s = eta: the initial
+                            # deceleration is the error of F at the located root
+                            # (roundoff, or the series tolerance), not physics.
+                            Q[0, 1] = 0.0
+                        r = first_root(Q[0], P, -1.0 * slide[i], 0.0, h)
+                        ctype[ncand] = EV_STOP
+                        cidx[ncand] = i
+                        croot[ncand] = r
+                        ncand += 1
+                        tau_e = min(tau_e, r)
+                for q in range(nc):
+                    i = cand[q]
+                    for k in range(P + 1):
+                        Q[0, k] = Fc[i, k] - Fc[i + 1, k]
+                    r = min(first_root(Q[0], P, 1.0, eta_s[i], h),
+                            first_root(Q[0], P, -1.0, eta_s[i], h))
+                    ctype[ncand] = EV_SLIP
                     cidx[ncand] = i
                     croot[ncand] = r
                     ncand += 1
                     tau_e = min(tau_e, r)
-            for q in range(nc):
-                i = cand[q]
-                for k in range(P + 1):
-                    Q[0, k] = Fc[i, k] - Fc[i + 1, k]
-                r = min(first_root(Q[0], P, 1.0, eta_s[i], h),
-                        first_root(Q[0], P, -1.0, eta_s[i], h))
-                ctype[ncand] = EV_SLIP
-                cidx[ncand] = i
-                croot[ncand] = r
-                ncand += 1
-                tau_e = min(tau_e, r)
-        event = tau_e <= h
-        tau = tau_e if event else h
-        # --- frames at the output cadence inside the step
-        # t_new = t + tau as a double-double (TwoSum, then renormalise)
-        s_ = t + tau
-        bb = s_ - t
-        lo = tlo + ((t - (s_ - bb)) + (tau - bb))
-        t_new = s_ + lo
-        t_lo_new = lo - (t_new - s_)
-        if not event and tau == h and h == (t_end - t) - tlo:
-            t_new = t_end
-            t_lo_new = 0.0
-        if out_dt > 0.0:
-            while True:
-                tf = ist[I_FRAMEK] * out_dt
-                if tf > t_new or tf > t_end:
-                    break
-                if ist[I_NFR] >= fr_cap - 3:
-                    return C_BUFFER  # state untouched: the step is redone after growing
-                x = (tf - t) - tlo
-                for q in range(nm):
-                    i = mov[q]
-                    wrk[N + 1 + i] = u[i]
-                    wrk[2 * N + 1 + i] = v[i]
-                    u[i] = _horner(U[i], P, x)
-                    v[i] = _horner(V[i], P, x)
-                for q in range(na):
-                    j = act[q]
-                    Q[1, j] = dl[j]
-                    dl[j] = _horner(D[j], P, x)
-                dwc, dwv = _ledger(coulomb, viscous, P, nm, mov, slide, eta, gamma, U, V, Q, x)
-                _record(law, tf, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
-                        fr_t, fr_x, fr_v, fr_f, fr_e, dwc, dwv)
-                for q in range(nm):
-                    i = mov[q]
-                    u[i] = wrk[N + 1 + i]
-                    v[i] = wrk[2 * N + 1 + i]
-                for q in range(na):
-                    j = act[q]
-                    dl[j] = Q[1, j]
-                ist[I_FRAMEK] += 1
-        # --- advance to the end of the step (or the event)
-        dwc, dwv = _ledger(coulomb, viscous, P, nm, mov, slide, eta, gamma, U, V, Q, tau)
-        st[S_WC] += dwc
-        st[S_WV] += dwv
-        for q in range(nm):
-            i = mov[q]
-            u[i] = u[i] + _increment(U[i], P, tau)
-            v[i] = _horner(V[i], P, tau)
-        for q in range(na):
-            j = act[q]
-            dl[j] = _horner(D[j], P, tau)
-        st[S_T] = t_new
-        st[S_TLO] = t_lo_new
-        ist[I_STEPS] += 1
-        bad = False
-        for q in range(nm):
-            if not (math.isfinite(u[mov[q]]) and math.isfinite(v[mov[q]])):
-                bad = True
-        if bad:
-            return C_NONFINITE
-        if not event:
-            if ist[I_EVERY] > 0 and ist[I_STEPS] % ist[I_EVERY] == 0:
-                _record(law, t_new, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
-                        fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
-            if t_new >= t_end:
-                _record(law, t_end, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
-                        fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
-                return C_T_END
-            continue
+            event = tau_e <= h
+            tau = tau_e if event else h
+            # --- frames at the output cadence inside the step
+            # t_new = t + tau as a double-double (TwoSum, then renormalise)
+            s_ = t + tau
+            bb = s_ - t
+            lo = tlo + ((t - (s_ - bb)) + (tau - bb))
+            t_new = s_ + lo
+            t_lo_new = lo - (t_new - s_)
+            if not event and tau == h and h == (t_end - t) - tlo:
+                t_new = t_end
+                t_lo_new = 0.0
+            if out_dt > 0.0:
+                while True:
+                    tf = ist[I_FRAMEK] * out_dt
+                    if tf > t_new or tf > t_end:
+                        break
+                    if ist[I_NFR] >= fr_cap - 3:
+                        return C_BUFFER  # state untouched: the step is redone after growing
+                    x = (tf - t) - tlo
+                    for q in range(nm):
+                        i = mov[q]
+                        wrk[N + 1 + i] = u[i]
+                        wrk[2 * N + 1 + i] = v[i]
+                        u[i] = _horner(U[i], P, x)
+                        v[i] = _horner(V[i], P, x)
+                    for q in range(na):
+                        j = act[q]
+                        Q[1, j] = dl[j]
+                        dl[j] = _horner(D[j], P, x)
+                    dwc, dwv = _ledger(coulomb, viscous, P, nm, mov, slide, eta, gamma, U, V, Q, x)
+                    _record(law, tf, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
+                            fr_t, fr_x, fr_v, fr_f, fr_e, dwc, dwv)
+                    for q in range(nm):
+                        i = mov[q]
+                        u[i] = wrk[N + 1 + i]
+                        v[i] = wrk[2 * N + 1 + i]
+                    for q in range(na):
+                        j = act[q]
+                        dl[j] = Q[1, j]
+                    ist[I_FRAMEK] += 1
+            # --- advance to the end of the step (or the event)
+            dwc, dwv = _ledger(coulomb, viscous, P, nm, mov, slide, eta, gamma, U, V, Q, tau)
+            st[S_WC] += dwc
+            st[S_WV] += dwv
+            for q in range(nm):
+                i = mov[q]
+                u[i] = u[i] + _increment(U[i], P, tau)
+                v[i] = _horner(V[i], P, tau)
+            for q in range(na):
+                j = act[q]
+                dl[j] = _horner(D[j], P, tau)
+            st[S_T] = t_new
+            st[S_TLO] = t_lo_new
+            ist[I_STEPS] += 1
+            bad = False
+            for q in range(nm):
+                if not (math.isfinite(u[mov[q]]) and math.isfinite(v[mov[q]])):
+                    bad = True
+            if bad:
+                return C_NONFINITE
+            if not event:
+                if ist[I_EVERY] > 0 and ist[I_STEPS] % ist[I_EVERY] == 0:
+                    _record(law, t_new, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
+                            fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
+                if t_new >= t_end:
+                    _record(law, t_end, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
+                            fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
+                    return C_T_END
+                continue
         # --- the event: set the event quantities exactly, for every tie
         # Roots of different event functions at one true instant agree to a few
         # ulps of tau: those are processed together (simultaneous events).
@@ -861,9 +1133,46 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
                     slide[i] = 1 if F > 0.0 else -1
                     gflag[i] = 2  # settle keeps this root-located slip
         nev_before = ist[I_NEV]
-        opened = settle(law, t_new, v, dl, closed, present, slide, csl, kc, nexp, mass, eta,
-                        eta_s, gamma, old_c, old_s, ev_t, ev_k, ev_i, ist, counts, watch,
-                        gflag, cflag)
+        # settle only around the events of the batch (see settle: the window grows
+        # where a change reaches its edge)
+        wlo = N
+        whi = -1
+        for q in range(ncand):
+            if croot[q] <= tau_e + tie and ctype[q] >= 0:
+                c_ = cidx[q]
+                if ctype[q] == EV_OPEN or ctype[q] == EV_CLOSE:
+                    wlo = min(wlo, c_ - 2)
+                    whi = max(whi, c_ + 1)
+                else:
+                    wlo = min(wlo, c_ - 1)
+                    whi = max(whi, c_ + 1)
+        if whi < wlo:
+            wlo = 0
+            whi = -1
+        win[0] = max(wlo, 0)
+        win[1] = min(whi, N - 1)
+        if win[1] >= win[0]:
+            opened = settle(law, t_new, v, dl, closed, present, slide, csl, kc, nexp, mass,
+                            eta, eta_s, gamma, old_c, old_s, ev_t, ev_k, ev_i, ist, counts,
+                            watch, gflag, cflag, win)
+        else:
+            opened = 0
+        # update the moving set inside the settled window
+        nmv = ist[I_NM]
+        for i in range(win[0], win[1] + 1):
+            inn = _is_moving(i, v, closed, present, slide)
+            if inn == 1 and am[i] == 0:
+                am[i] = 1
+                pos[i] = nmv
+                mov[nmv] = i
+                nmv += 1
+            elif inn == 0 and am[i] == 1:
+                am[i] = 0
+                last = mov[nmv - 1]
+                mov[pos[i]] = last
+                pos[last] = pos[i]
+                nmv -= 1
+        ist[I_NM] = nmv
         # A slip decided at the root is logged here (settle saw the new mode already).
         for q in range(ncand):
             if croot[q] <= tau_e + tie and ctype[q] == EV_SLIP:
@@ -875,6 +1184,12 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
                     ev_i[n_] = i
                     ist[I_NEV] = n_ + 1
                     counts[EV_SLIP] += 1
+        for q in range(ncand):
+            if croot[q] <= tau_e + tie:
+                if ctype[q] == EV_OPEN or ctype[q] == EV_CLOSE or ctype[q] == -1:
+                    cflag[cidx[q]] = 0
+                else:
+                    gflag[cidx[q]] = 0
         if tau_e == 0.0 and ist[I_NEV] == nev_before:
             # A root at the step's start that changes no mode: count it as a
             # batch that does not advance time, so a loop ends as Zeno.
@@ -897,7 +1212,7 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
             if opened == 1 and ist[I_STOPSEP] == 1:
                 return C_SEPARATED
             if ist[I_STOPREST] == 1 and _all_at_rest(law, v, dl, closed, present, slide, csl,
-                                                      kc, nexp):
+                                                      kc, nexp, mov, ist[I_NM]):
                 if ist[I_FRAMEEV] == 0:
                     _record(law, t_new, x0, u, v, dl, closed, present, kc, nexp, mass, st,
                             ist, fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)

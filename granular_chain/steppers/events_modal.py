@@ -1,0 +1,443 @@
+"""Exact modal solution of a two-granule linear (n = 2) mode: exact near critical damping.
+
+Why not the Taylor series here
+------------------------------
+A Taylor (or any) stepper rounds the state once per step. Near critical
+damping (gamma^2 -> 8 for the paper's pair) the mode pair is nearly defective:
+a relative perturbation eps of the state at time s reaches the answer at t0 as
+a relative error ~ eps s (t0 - s), and t0 = pi/omega grows without bound
+(gamma = 2.8284: t0 = 507, measured 3.4e-11). Evaluating the closed form from
+the start of the mode has no such accumulation; what remains is the
+conditioning of the closed form's own ingredients, handled here:
+
+* ``D = K - c^2/4`` is formed with an exact product (Dekker's TwoProduct) and
+  TwoSum, so omega = sqrt(D) keeps its relative digits when D << K (plain
+  double loses them: 8 eps / (8 - gamma^2)).
+* omega, omega*tau, c*tau and the event time tau are double-doubles: the
+  answer decays like exp(-c tau / 2), whose relative error is (c tau / 2) times
+  that of tau, 717 * eps at gamma = 2.8284 in plain double.
+* ``S(tau) = sin(omega tau)/omega`` (cosh/sinh for D < 0, tau at D = 0) is the
+  stable phi-function: it tends to tau as omega -> 0 with no cancellation,
+  because omega itself is accurate.
+
+The mode
+--------
+Granules 0 and 1, one closed linear contact (overlap delta, force k delta),
+each granule either moving (frictionless, or sliding with a Coulomb force
+f_i = -eta_i s_i) or stuck. With both moving and equal drag rates
+c = gamma_0/m_0 = gamma_1/m_1, the relative and centre-of-mass motions decouple:
+
+    delta'' + c delta' + K delta = b,   K = k (1/m_0 + 1/m_1),  b = f_0/m_0 - f_1/m_1
+    M V' = -c M V + F,                  M = m_0 + m_1,          F = f_0 + f_1
+
+With one granule moving (the other stuck) the same scalar equation holds for
+delta with K = k/m_i, c = c_i, b = +-f_i/m_i. With y = delta - b/K,
+B = w_0 + c y_0 / 2 (w = delta'):
+
+    y(tau) = e^(-c tau/2) [y_0 C(tau) + B S(tau)]
+    w(tau) = e^(-c tau/2) [w_0 C(tau) - (K y_0 + c w_0/2) S(tau)]
+
+C = cos(omega tau), S = sin(omega tau)/omega (D > 0); cosh, sinh/kappa (D < 0);
+1, tau (D = 0).
+"""
+
+import math
+
+import numba
+
+PI_HI = 3.141592653589793
+PI_LO = 1.2246467991473532e-16
+SPLIT = 134217729.0  # 2^27 + 1
+
+# Parameter slots of the mode record ``p`` (float64[24]).
+(P_C, P_K, P_B, P_Y0, P_W0, P_DH, P_DL, P_OH, P_OL, P_V0, P_FM, P_CASE, P_A0, P_A1,
+ P_D0, P_VI0, P_VI1, P_ETAS, P_KC, P_S0, P_S1, P_CM) = range(22)
+NPAR = 24
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy")
+def two_sum(a, b):
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy")
+def two_prod(a, b):
+    """a*b = p + e exactly (Dekker; no FMA needed)."""
+    p = a * b
+    t = SPLIT * a
+    ah = t - (t - a)
+    al = a - ah
+    t = SPLIT * b
+    bh = t - (t - b)
+    bl = b - bh
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, e
+
+
+@numba.njit(cache=True, error_model="numpy")
+def setup(p, m0, m1, g0, g1, kc, eta0, eta1, s0, s1, d0, v0, v1, eta_s_other):
+    """Fill the mode record. s_i: 2 frictionless/moving, +-1 sliding, 0 stuck.
+
+    Returns False when the mode is not covered (both stuck, or both moving
+    with unequal drag rates: those stay with the Taylor series).
+    """
+    mv0 = s0 != 0
+    mv1 = s1 != 0
+    f0 = -eta0 * s0 if (s0 == 1 or s0 == -1) else 0.0
+    f1 = -eta1 * s1 if (s1 == 1 or s1 == -1) else 0.0
+    if mv0 and mv1:
+        c = g0 / m0
+        if g1 / m1 != c:
+            return False
+        K = kc * (1.0 / m0 + 1.0 / m1)
+        b = f0 / m0 - f1 / m1
+        w0 = v0 - v1
+        M = m0 + m1
+        p[P_CASE] = 0.0
+        p[P_V0] = (m0 * v0 + m1 * v1) / M
+        p[P_FM] = (f0 + f1) / M
+        p[P_A0] = m1 / M
+        p[P_A1] = m0 / M
+        p[P_CM] = M
+    elif mv0:
+        c = g0 / m0
+        K = kc / m0
+        b = f0 / m0
+        w0 = v0
+        p[P_CASE] = 1.0
+    elif mv1:
+        c = g1 / m1
+        K = kc / m1
+        b = -f1 / m1
+        w0 = -v1
+        p[P_CASE] = 2.0
+    else:
+        return False
+    p[P_C] = c
+    p[P_K] = K
+    p[P_B] = b
+    p[P_Y0] = d0 - b / K
+    p[P_W0] = w0
+    p[P_D0] = d0
+    p[P_VI0] = v0 if mv0 else 0.0
+    p[P_VI1] = v1 if mv1 else 0.0
+    p[P_ETAS] = eta_s_other
+    p[P_KC] = kc
+    p[P_S0] = s0
+    p[P_S1] = s1
+    # D = K - c^2/4 with its low part (exact product, then TwoSum).
+    cp, ce = two_prod(c, c)
+    dh, dl = two_sum(K, -0.25 * cp)
+    dl -= 0.25 * ce
+    dh, dl = two_sum(dh, dl)
+    p[P_DH] = dh
+    p[P_DL] = dl
+    if dh > 0.0:
+        oh = math.sqrt(dh)
+        sp, se = two_prod(oh, oh)
+        ol = ((dh - sp) - se + dl) / (2.0 * oh)
+    elif dh < 0.0:
+        oh = math.sqrt(-dh)
+        sp, se = two_prod(oh, oh)
+        ol = ((-dh - sp) - se - dl) / (2.0 * oh)
+    else:
+        oh = 0.0
+        ol = 0.0
+    p[P_OH] = oh
+    p[P_OL] = ol
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _csa(p, th, tl):
+    """e^(-c tau/2) C(tau), e^(-c tau/2) S(tau), e^(-c tau) for tau = th + tl."""
+    c = p[P_C]
+    cp, ce = two_prod(c, th)
+    corr = ce + c * tl
+    A = math.exp(-0.5 * cp) * (1.0 - 0.5 * corr)
+    E = math.exp(-cp) * (1.0 - corr)
+    dh = p[P_DH]
+    oh = p[P_OH]
+    ol = p[P_OL]
+    if dh > 0.0:
+        xh, xe = two_prod(oh, th)
+        xl = xe + oh * tl + ol * th
+        sh = math.sin(xh)
+        ch = math.cos(xh)
+        sn = sh + xl * ch
+        cs = ch - xl * sh
+        S = sn / oh * (1.0 - ol / oh)
+        return A * cs, A * S, E
+    if dh < 0.0:
+        kap = oh + ol
+        tau = th + tl
+        x = kap * tau
+        if x < 20.0:
+            return A * math.cosh(x), A * math.sinh(x) / kap, E
+        half = 0.5 * c
+        r1 = -p[P_K] / (kap + half)  # kappa - c/2 without cancellation
+        r2 = -(kap + half)
+        e1 = math.exp(r1 * tau)
+        e2 = math.exp(r2 * tau)
+        return 0.5 * (e1 + e2), 0.5 * (e1 - e2) / kap, E
+    return A, A * (th + tl), E
+
+
+@numba.njit(cache=True, error_model="numpy")
+def state(p, th, tl):
+    """delta, w = delta', v0, v1, du0, du1 at tau = th + tl from the mode start.
+
+    At tau = 0 the mode's initial state is returned exactly (the closed form
+    would round it), so event functions agree with the state settle saw.
+    """
+    if th == 0.0 and tl == 0.0:
+        return p[P_D0], p[P_W0], p[P_VI0], p[P_VI1], 0.0, 0.0
+    c = p[P_C]
+    K = p[P_K]
+    y0 = p[P_Y0]
+    w0 = p[P_W0]
+    B = w0 + 0.5 * c * y0
+    tau = th + tl
+    case = p[P_CASE]
+    if tau * (math.sqrt(K) + 0.5 * c + abs(p[P_OH])) < 0.5:
+        # Early in the mode: increments from the initial state with expm1 and
+        # 2 sin^2(x/2) (no 1 - 1 cancellation), so a granule that has just
+        # stopped or slipped at a near-balanced force gets the sign of its tiny
+        # velocity right (the direct form rounds it to +-1e-17).
+        A = math.exp(-0.5 * c * tau)
+        Am1 = math.expm1(-0.5 * c * tau)
+        dh = p[P_DH]
+        if dh > 0.0:
+            om = p[P_OH] + p[P_OL]
+            sh = math.sin(0.5 * om * tau)
+            cm1 = -2.0 * sh * sh
+            S = math.sin(om * tau) / om
+        elif dh < 0.0:
+            kap = p[P_OH] + p[P_OL]
+            sh = math.sinh(0.5 * kap * tau)
+            cm1 = 2.0 * sh * sh
+            S = math.sinh(kap * tau) / kap
+        else:
+            cm1 = 0.0
+            S = tau
+        ACm1 = A * cm1 + Am1
+        AS = A * S
+        dy = y0 * ACm1 + B * AS
+        dw = w0 * ACm1 - (K * y0 + 0.5 * c * w0) * AS
+        delta = p[P_D0] + dy
+        w = w0 + dw
+        if case == 0.0:
+            x = c * tau
+            if x < 1e-3:
+                ph1 = tau * (1.0 - x / 2.0 + x * x / 6.0 - x * x * x / 24.0 + x ** 4 / 120.0)
+                ph2 = tau * tau * (0.5 - x / 6.0 + x * x / 24.0 - x * x * x / 120.0
+                                   + x ** 4 / 720.0)
+            else:
+                ph1 = -math.expm1(-x) / c
+                ph2 = (tau - ph1) / c
+            dV = p[P_V0] * math.expm1(-x) + p[P_FM] * ph1
+            dU = p[P_V0] * ph1 + p[P_FM] * ph2
+            return (delta, w, p[P_VI0] + dV + p[P_A0] * dw, p[P_VI1] + dV - p[P_A1] * dw,
+                    dU + p[P_A0] * dy, dU - p[P_A1] * dy)
+        if case == 1.0:
+            return delta, w, w, 0.0, dy, 0.0
+        return delta, w, 0.0, -w, 0.0, -dy
+    AC, AS, E = _csa(p, th, tl)
+    y = y0 * AC + B * AS
+    w = w0 * AC - (K * y0 + 0.5 * c * w0) * AS
+    delta = y + p[P_B] / K
+    dd = delta - p[P_D0]
+    if case == 0.0:
+        # phi1 = (1 - e^(-c tau))/c, phi2 = (tau - phi1)/c, both -> tau, tau^2/2 at c -> 0
+        if c * tau < 1e-3:
+            x = c * tau
+            ph1 = tau * (1.0 - x / 2.0 + x * x / 6.0 - x * x * x / 24.0 + x ** 4 / 120.0)
+            ph2 = tau * tau * (0.5 - x / 6.0 + x * x / 24.0 - x * x * x / 120.0
+                               + x ** 4 / 720.0)
+        else:
+            ph1 = -math.expm1(-c * tau) / c
+            ph2 = (tau - ph1) / c
+        V = p[P_V0] * E + p[P_FM] * ph1
+        dU = p[P_V0] * ph1 + p[P_FM] * ph2
+        return delta, w, V + p[P_A0] * w, V - p[P_A1] * w, dU + p[P_A0] * dd, dU - p[P_A1] * dd
+    if case == 1.0:
+        return delta, w, w, 0.0, dd, 0.0
+    return delta, w, 0.0, -w, 0.0, -dd
+
+
+@numba.njit(cache=True, error_model="numpy")
+def g_event2(p, kind, th, tl):
+    """Event function and its time derivative (g < 0 on the valid side):
+    0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip of the stuck
+    granule (k delta > eta_s)."""
+    delta, w, v0, v1, du0, du1 = state(p, th, tl)
+    c = p[P_C]
+    wd = p[P_B] - p[P_K] * delta - c * w  # delta''
+    if kind == 0:
+        return -delta, -w
+    if kind == 3:
+        return p[P_KC] * delta - p[P_ETAS], p[P_KC] * w
+    case = p[P_CASE]
+    if case == 0.0:
+        V = v0 - p[P_A0] * w
+        Vd = -c * V + p[P_FM]
+        a0 = Vd + p[P_A0] * wd
+        a1 = Vd - p[P_A1] * wd
+    elif case == 1.0:
+        a0 = wd
+        a1 = 0.0
+    else:
+        a0 = 0.0
+        a1 = -wd
+    if kind == 1:
+        return -p[P_S0] * v0, -p[P_S0] * a0
+    return -p[P_S1] * v1, -p[P_S1] * a1
+
+
+@numba.njit(cache=True, error_model="numpy")
+def g_event(p, kind, th, tl):
+    g, gd = g_event2(p, kind, th, tl)
+    return g
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _bisect_up(p, kind, lo, hi):
+    """Bisect g on [lo, hi] with g(lo) < 0 <= g(hi) to 2 ulps, Newton-polish to a double-double."""
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if g_event(p, kind, mid, 0.0) < 0.0:
+            lo = mid
+        else:
+            hi = mid
+    th, tl = hi, 0.0
+    g1, d1 = g_event2(p, kind, th, tl)
+    if d1 != 0.0:
+        corr = -g1 / d1
+        if abs(corr) < 4.0 * (hi - lo) + 1e-300:
+            th, tl = two_sum(th, tl + corr)
+    return th, tl
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _max_of(p, kind, lo, hi):
+    """Interior maximum of g on [lo, hi] with g'(lo) > 0 > g'(hi) (bisection on g')."""
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        g, d = g_event2(p, kind, mid, 0.0)
+        if d > 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True, error_model="numpy")
+def sample_step(p):
+    """Sampling interval: a quarter of the fastest time scale of the mode."""
+    rate = max(math.sqrt(p[P_K]), 0.5 * p[P_C], abs(p[P_OH]))
+    return 0.25 / rate
+
+
+@numba.njit(cache=True, error_model="numpy")
+def open_root_analytic(p, h):
+    """First tau in (0, h] with y(tau) = 0 when b = 0 (delta = y): closed form.
+
+    Returns the root as a double-double (th, tl) polished by Newton steps on the
+    accurate evaluator, or (inf, 0) when there is none in (0, h].
+    """
+    y0 = p[P_Y0]
+    c = p[P_C]
+    B = p[P_W0] + 0.5 * c * y0
+    dh = p[P_DH]
+    # y/A = y0 C + B S: a zero where y0 C + B S = 0.
+    if dh > 0.0:
+        om = p[P_OH] + p[P_OL]
+        # angle theta in (0, pi] with y0 cos + (B/om) sin = 0
+        if y0 == 0.0:
+            if B > 0.0:
+                th_h, th_l = PI_HI, PI_LO  # first positive zero of sin
+            elif B < 0.0:
+                return 0.0, 0.0  # leaves at once
+            else:
+                return math.inf, 0.0  # nothing moves
+        else:
+            ang = math.atan2(-y0 * om, B)  # theta with tan(theta) = -y0 om / B
+            while ang <= 0.0:
+                ang += math.pi
+            th_h, th_l = ang, 0.0
+        # tau = theta / omega in double-double
+        q = th_h / p[P_OH]
+        ph, pe = two_prod(q, p[P_OH])
+        r = ((th_h - ph) - pe + th_l - q * p[P_OL]) / p[P_OH]
+        th, tl = two_sum(q, r)
+    elif dh < 0.0:
+        kap = p[P_OH] + p[P_OL]
+        if B == 0.0:
+            return math.inf, 0.0
+        z = -kap * y0 / B
+        if not (0.0 < z < 1.0):
+            return math.inf, 0.0
+        th, tl = math.atanh(z) / kap, 0.0
+    else:
+        if B == 0.0 or -y0 / B <= 0.0:
+            return math.inf, 0.0
+        th, tl = -y0 / B, 0.0
+    if not (th <= h):
+        return math.inf, 0.0
+    for _ in range(2):
+        delta, w, v0, v1, du0, du1 = state(p, th, tl)
+        if w == 0.0:
+            break
+        th, tl = two_sum(th, tl - delta / w)
+    return th, tl
+
+
+@numba.njit(cache=True, error_model="numpy")
+def first_root(p, kind, h, nsamp):
+    """First tau in [0, h] where g_event(kind) reaches 0 from below, as (th, tl).
+
+    Sampling at ``nsamp`` points with the derivative: a sign change is bisected
+    to 2 ulps; an interior maximum between two samples (g' from + to -) is
+    located on g' and checked, so a grazing dip between samples is not missed
+    (the same rule as the Taylor path's polynomial roots). Then one Newton
+    step on the double-double tau.
+    """
+    ga, da = g_event2(p, kind, 0.0, 0.0)
+    if ga > 0.0:
+        return 0.0, 0.0
+    # ga == 0 (a granule that just stopped or slipped, a contact at delta = 0):
+    # the slope there can be roundoff, so the samples decide (below).
+    a = 0.0
+    for s in range(1, nsamp + 1):
+        b = h * s / nsamp
+        gb, db = g_event2(p, kind, b, 0.0)
+        if gb >= 0.0 and not (ga == 0.0 and s == 1 and gb == 0.0):
+            if ga == 0.0:
+                # started on the boundary going negative: step inside first
+                x = b
+                found = False
+                for _ in range(60):
+                    x *= 0.5
+                    if g_event(p, kind, x, 0.0) < 0.0:
+                        found = True
+                        break
+                if not found:
+                    return 0.0, 0.0
+                a = x
+            return _bisect_up(p, kind, a, b)
+        if da > 0.0 and db < 0.0:
+            xm = _max_of(p, kind, a, b)
+            if g_event(p, kind, xm, 0.0) >= 0.0:
+                if ga == 0.0:
+                    return xm, 0.0
+                return _bisect_up(p, kind, a, xm)
+        a = b
+        ga = gb
+        da = db
+    return math.inf, 0.0
