@@ -14,6 +14,7 @@ i between granules i and i+1, -1 the left wall, N-1 the right wall).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 
@@ -59,8 +60,81 @@ def _pack(model: Model):
     return present, dl, kc, nexp
 
 
+def _scales(model: Model):
+    """Mass, length, time scales (M, A, B) of Appendix A for this scene.
+
+    The kernel's step control and tolerances (atol) are absolute, tuned for
+    scaled units (m ~ 1, force coefficient ~ 1, speeds ~ 1). A scene in SI, or
+    with an impact speed of 1e-8, is run in its own scaled units and the result
+    converted back, so that the answer does not depend on the units.
+    Returns None when the scene is already scaled (or nothing sets a scale).
+    """
+    M = float(model.mass[0])
+    present_k = [float(k) for k in model.k]
+    present_n = [float(n) for n in model.n]
+    w = model.walls
+    if model.features.left_wall:
+        present_k.append(float(w[1]))
+        present_n.append(float(w[2]))
+    if model.features.right_wall:
+        present_k.append(float(w[4]))
+        present_n.append(float(w[5]))
+    if not present_k:
+        return None
+    K0, n0 = present_k[0], present_n[0]
+    V = float(np.max(np.abs(model.v0)))
+    if V == 0.0:
+        return None
+    A = (M * V * V / K0) ** (1.0 / n0)
+    B = A / V
+    if M == 1.0 and A == 1.0 and B == 1.0:
+        return None
+    return M, A, B
+
+
+def _scaled_model(model: Model, M: float, A: float, B: float) -> Model:
+    F = M * A / (B * B)  # force scale
+    w = model.walls.copy()
+    w[0] /= A
+    w[3] /= A
+    w[1] = w[1] * A ** w[2] / (F * A)
+    w[4] = w[4] * A ** w[5] / (F * A)
+    return dataclasses.replace(
+        model, mass=model.mass / M, inv_mass=model.inv_mass * M, radius=model.radius / A,
+        x0=model.x0 / A, v0=model.v0 * (B / A), d0=model.d0 / A,
+        k=model.k * A ** model.n / (F * A), walls=w, eta=model.eta / F,
+        eta_static=model.eta_static / F, gamma=model.gamma * (B / M))
+
+
 def simulate_events(scene, model: Model) -> Result:
-    """Run the scene with the event stepper (see module docstring).
+    """Run the scene with the event stepper in its own scaled units (see :func:`_scales`)."""
+    scales = _scales(model)
+    if scales is None:
+        return _simulate_events(scene, model, 1.0)
+    M, A, B = scales
+    run = scene.run.model_copy(update={"t_end": scene.run.t_end / B})
+    out = scene.output.model_copy(
+        update={"dt": scene.output.dt / B if scene.output.dt is not None else None})
+    r = _simulate_events(scene.model_copy(update={"run": run, "output": out}),
+                         _scaled_model(model, M, A, B), B)
+    V, F, E = A / B, M * A / (B * B), M * A * A / (B * B)
+    led = r.energy
+    r.energy = EnergyLedger(kinetic=led.kinetic * E, potential=led.potential * E,
+                            coulomb=led.coulomb * E, viscous=led.viscous * E,
+                            initial=led.initial * E)
+    r.t, r.x, r.v, r.f = r.t * B, r.x * A, r.v * V, r.f * F
+    r.t_final, r.x_final, r.v_final = r.t_final * B, r.x_final * A, r.v_final * V
+    r.events = [Event(e.t * B, e.kind, e.index) for e in r.events]
+    r.info["event_stepper"]["internal_scales"] = {"mass": M, "length": A, "time": B}
+    if model.units == "physical":
+        from ..units import scaled_parameters
+        r.info["scaled"] = scaled_parameters(model)
+    return r
+
+
+def _simulate_events(scene, model: Model, tscale: float) -> Result:
+    """Run the scene with the event stepper (see module docstring); times in
+    messages are multiplied by ``tscale`` (the scene's own time unit).
 
     Returns
     -------
@@ -177,7 +251,8 @@ def simulate_events(scene, model: Model) -> Result:
     pe0 = float(fr_e[0, 1])
     e0 = ke0 + pe0
     t_final = float(st[K.S_T])
-    status, message = _status(code, scene, model, st, ist, t_final, nev)
+    status, message = _status(code, scene, model, st * _time_fields(tscale), ist,
+                              t_final * tscale, nev)
     energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                           coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
                           initial=e0)
@@ -195,6 +270,13 @@ def simulate_events(scene, model: Model) -> Result:
         message=message, steps=int(ist[K.I_STEPS]), wall_time=wall, stepper="event", dt=None,
         t_final=t_final, x_final=x[-1].copy(), v_final=vv[-1].copy(), events=events,
         event_counts={k: int(n) for k, n in zip(EVENT_KINDS, counts)}, info=info)
+
+
+def _time_fields(tscale: float) -> np.ndarray:
+    """Factors that put the kernel's time-valued state entries in the scene's unit."""
+    f = np.ones(9)
+    f[K.S_T] = f[K.S_TEND] = f[K.S_JUMPFROM] = tscale
+    return f
 
 
 def _grow(a: np.ndarray, n: int) -> np.ndarray:
