@@ -739,6 +739,21 @@ def _all_at_rest(law, v, dl, closed, present, slide, csl, kc, nexp, mov, nm):
     return True
 
 
+
+@numba.njit(inline="always", cache=True)
+def _force_term(linear, on, k_c, n_c, Dj, Fj, k):
+    """k-th Taylor coefficient of a contact force k_c delta^(n_c - 1) from the overlap's
+    coefficients Dj and the force's lower ones Fj (power recurrence); 0 when switched off."""
+    if not on:
+        return 0.0
+    if linear:
+        return k_c * Dj[k]
+    al = n_c - 1.0
+    s = 0.0
+    for ii in range(k):
+        s += (al * (k - ii) - ii) * Dj[k - ii] * Fj[ii]
+    return s / (k * Dj[0])
+
 @numba.njit(cache=True, error_model="numpy")
 def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, closed, present,
                slide, csl, kc, nexp, mass, eta, eta_s, gamma, U, V, D, Fc, Q, wrk,
@@ -889,17 +904,7 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
                 if k >= 1:
                     for q in range(na):
                         j = act[q]
-                        if wrk[j] == 1.0:
-                            if linear:
-                                Fc[j, k] = kc[j] * D[j, k]
-                            else:
-                                al = nexp[j] - 1.0
-                                s = 0.0
-                                for ii in range(k):
-                                    s += (al * (k - ii) - ii) * D[j, k - ii] * Fc[j, ii]
-                                Fc[j, k] = s / (k * D[j, 0])
-                        else:
-                            Fc[j, k] = 0.0
+                        Fc[j, k] = _force_term(linear, wrk[j] == 1.0, kc[j], nexp[j], D[j], Fc[j], k)
                 for q in range(nm):
                     i = mov[q]
                     a = Fc[i, k] - Fc[i + 1, k]
@@ -921,17 +926,7 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
                     D[j, k + 1] = (vl - vr) / (k + 1)
             for q in range(na):
                 j = act[q]
-                if wrk[j] == 1.0:
-                    if linear:
-                        Fc[j, P] = kc[j] * D[j, P]
-                    else:
-                        al = nexp[j] - 1.0
-                        s = 0.0
-                        for ii in range(P):
-                            s += (al * (P - ii) - ii) * D[j, P - ii] * Fc[j, ii]
-                        Fc[j, P] = s / (P * D[j, 0])
-                else:
-                    Fc[j, P] = 0.0
+                Fc[j, P] = _force_term(linear, wrk[j] == 1.0, kc[j], nexp[j], D[j], Fc[j], P)
             # --- step size (Jorba & Zou: last two terms below the tolerance). For
             # n = 2 also h <= S_HCAP = 0.5/L, L a bound on the mode's eigenvalues: the
             # series of a decaying exponential e^(-L h) has terms up to e^(L h), and
