@@ -4,9 +4,39 @@ Data flows one way: scene file -> :class:`Scene` -> packed :class:`Model` ->
 compiled kernel -> :class:`Result` -> writers. See README.md.
 """
 
-from .result import Event, Result, Status
-from .scene import Scene, SceneError, load_scene, scene_from_dict
-from .simulate import SimulationError, simulate
+import hashlib as _hashlib
+from pathlib import Path as _Path
+
+
+def _drop_stale_kernels() -> None:
+    """Delete the package's cached numba kernels when any of its sources changed.
+
+    numba keys each cached kernel on its own file only; our kernels inline the
+    laws of other modules, so after an edit or upgrade of, say, laws/friction.py
+    a cached kernel would keep the old machine code. A digest of all sources is
+    kept beside the cache; when it differs the package's .nbi/.nbc files go.
+    (A cache moved elsewhere with NUMBA_CACHE_DIR is not touched.)
+    """
+    root = _Path(__file__).resolve().parent
+    try:
+        digest = _hashlib.sha1(b"".join(f.read_bytes() for f in sorted(root.rglob("*.py"))))
+        stamp = root / "__pycache__" / "numba_sources.sha1"
+        if stamp.exists() and stamp.read_text() == digest.hexdigest():
+            return
+        for cache in root.rglob("__pycache__"):
+            for f in [*cache.glob("*.nbi"), *cache.glob("*.nbc")]:
+                f.unlink(missing_ok=True)
+        stamp.parent.mkdir(exist_ok=True)
+        stamp.write_text(digest.hexdigest())
+    except OSError:  # a read-only installation: nothing to clean, nothing to stamp
+        pass
+
+
+_drop_stale_kernels()
+
+from .result import Event, Result, Status  # noqa: E402
+from .scene import Scene, SceneError, load_scene, scene_from_dict  # noqa: E402
+from .simulate import SimulationError, simulate  # noqa: E402
 
 __all__ = ["Scene", "SceneError", "load_scene", "scene_from_dict", "simulate", "Result",
            "Status", "Event", "SimulationError"]
