@@ -1,6 +1,6 @@
 """Numbers for docs/events.md (issue 3, "Must show" 1-5).
 
-    /work/venv/bin/python benchmarks/event_checks.py [--chain N]
+    python benchmarks/event_checks.py [--chain N]
 
 Prints: (1) worst relative errors of the n = 2 event stepper against the
 paper's Sec. IIA and Sec. III closed forms, and near-critical damping

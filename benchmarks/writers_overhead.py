@@ -1,8 +1,8 @@
 """Cost of the writers: time and disk for 1000 frames of a 10,000-granule chain, and the
 run's overhead with writers on against off.
 
-    /work/venv/bin/python benchmarks/writers_overhead.py            # 10,000 granules, 1000 frames
-    /work/venv/bin/python benchmarks/writers_overhead.py --granules 1000 --frames 200
+    python benchmarks/writers_overhead.py            # 10,000 granules, 1000 frames
+    python benchmarks/writers_overhead.py --granules 1000 --frames 200
 
 The run is the shipped friction chain (scenarios/chain_friction.yaml) made longer,
 stepped to t_end = 1000 with a frame every t_end/frames. It reports:
