@@ -21,6 +21,17 @@ CHAIN = ROOT / "scenarios" / "chain_friction.yaml"
 LONG = ["--set", "granules.count=5000", "--set", "run.t_end=1e6", "--set", "output.dt=1000"]
 
 
+@pytest.fixture(scope="module", autouse=True)
+def _compiled_kernel(tmp_path_factory):
+    """Compile (or load) the scene's kernel first: a signal that lands while numba
+    compiles is only handled once LLVM returns, which on a cold cache can take
+    longer than the test waits."""
+    out = tmp_path_factory.mktemp("warm") / "warm"
+    subprocess.run([sys.executable, "-m", "granular_chain.cli", "run", str(CHAIN), "--out",
+                    str(out), "--quiet", "--set", "granules.count=50", "--set", "run.t_end=1",
+                    "--vtk", "--csv"], capture_output=True, text=True, check=True)
+
+
 def _start(out: Path, *extra):
     return subprocess.Popen(
         [sys.executable, "-m", "granular_chain.cli", "run", str(CHAIN), "--out", str(out),
@@ -49,7 +60,7 @@ def test_signal_leaves_nothing_that_looks_complete(tmp_path, sig, code, word):
     try:
         _wait_until_stepping(proc, tmp_path, out.name)
         proc.send_signal(sig)
-        _, err = proc.communicate(timeout=30)
+        _, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -72,7 +83,7 @@ def test_interrupted_rerun_keeps_the_previous_output(tmp_path):
     try:
         _wait_until_stepping(proc, tmp_path, out.name)
         proc.send_signal(signal.SIGINT)
-        proc.communicate(timeout=30)
+        proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
             proc.kill()
