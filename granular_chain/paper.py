@@ -981,6 +981,26 @@ def iib_backscatter_threshold_eta_exact(dps=30):
     return +r
 
 
+
+def golden_min(f, a, b, tol):
+    """Golden-section search for the minimum of a unimodal f on [a, b].
+
+    Works in the number type of ``a`` and ``b`` (float or mpmath), to width ``tol``.
+    """
+    gr = ((a * 0 + 5) ** 0.5 - 1) / 2
+    c, d = b - gr * (b - a), a + gr * (b - a)
+    fc, fd = f(c), f(d)
+    while b - a > tol:
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - gr * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + gr * (b - a)
+            fd = f(d)
+    return (a + b) / 2
+
 def iib_max_backscatter_exact(dps=20):
     """Sec. II B claim: the backward speed of granule 1 peaks at "approximately 3%".
 
@@ -995,20 +1015,8 @@ def iib_max_backscatter_exact(dps=20):
     with mpmath.workdps(dps + 10):
         def f(e):
             return iib_collision_exact(e, dps)["v1s"]  # minimise v1s
-        a, b = mpmath.mpf("0.02"), mpmath.mpf("0.2")
-        gr = (mpmath.sqrt(5) - 1) / 2
-        c, d = b - gr * (b - a), a + gr * (b - a)
-        fc, fd = f(c), f(d)
-        while b - a > mpmath.mpf(10) ** (-(dps // 2 + 2)):
-            if fc < fd:
-                b, d, fd = d, c, fc
-                c = b - gr * (b - a)
-                fc = f(c)
-            else:
-                a, c, fc = c, d, fd
-                d = a + gr * (b - a)
-                fd = f(d)
-        e = (a + b) / 2
+        e = golden_min(f, mpmath.mpf("0.02"), mpmath.mpf("0.2"),
+                       mpmath.mpf(10) ** (-(dps // 2 + 2)))
         v = -f(e)
     return +e, +v
 

@@ -78,20 +78,7 @@ def state_at(t, **kw):
     return x1, x2, c.result.v_final[0], c.result.v_final[1]
 
 
-def golden_min(f, a, b, tol=1e-9):
-    g = (math.sqrt(5) - 1) / 2
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    while b - a > tol:
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = f(d)
-    return (a + b) / 2
+golden_min = P.golden_min
 
 
 def bisect_outcome(f_is_inside, lo, hi, tol=1e-12):

@@ -59,6 +59,7 @@ from numba import literally
 from ..laws.contact import LAW_LINEAR, contact_energy, contact_force
 from ..laws.friction import phi1
 from . import events_modal as EM
+from .verlet import EV_CLOSE, EV_OPEN, EV_SLIP, EV_STOP  # one numbering of event kinds
 
 # Return codes of run_events.
 C_T_END = 0
@@ -70,8 +71,6 @@ C_MAX_STEPS = 5
 C_BUFFER = 6
 C_NONFINITE = 7
 
-# Event kinds (same order as the Verlet counters).
-EV_CLOSE, EV_OPEN, EV_STOP, EV_SLIP = 0, 1, 2, 3
 
 # Float state slots.
 S_T, S_TEND, S_OUTDT, S_WC, S_WV, S_LASTEV, S_JUMPFROM, S_HCAP, S_TLO = range(9)
@@ -754,6 +753,17 @@ def _force_term(linear, on, k_c, n_c, Dj, Fj, k):
         s += (al * (k - ii) - ii) * Dj[k - ii] * Fj[ii]
     return s / (k * Dj[0])
 
+
+@numba.njit(inline="always", cache=True)
+def _add_contacts(i, present, cflag, act, na):
+    """Append the (present, not yet listed) contacts i and i+1 of granule i to act[:na]."""
+    for j in range(i, i + 2):
+        if present[j] == 1 and cflag[j] == 0:
+            cflag[j] = 1
+            act[na] = j
+            na += 1
+    return na
+
 @numba.njit(cache=True, error_model="numpy")
 def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, closed, present,
                slide, csl, kc, nexp, mass, eta, eta_s, gamma, U, V, D, Fc, Q, wrk,
@@ -843,11 +853,7 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
             nc = 0
             for q in range(nm):
                 i = mov[q]
-                for j in range(i, i + 2):
-                    if present[j] == 1 and cflag[j] == 0:
-                        cflag[j] = 1
-                        act[na] = j
-                        na += 1
+                na = _add_contacts(i, present, cflag, act, na)
             na1 = na
             for q in range(na1):
                 j = act[q]
@@ -857,12 +863,7 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
                         cand[nc] = i
                         nc += 1
             for q in range(nc):
-                i = cand[q]
-                for j in range(i, i + 2):
-                    if present[j] == 1 and cflag[j] == 0:
-                        cflag[j] = 1
-                        act[na] = j
-                        na += 1
+                na = _add_contacts(cand[q], present, cflag, act, na)
             # the flags only de-duplicate: clear them for the event marks below
             for q in range(na):
                 cflag[act[q]] = 0
