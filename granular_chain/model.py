@@ -46,10 +46,6 @@ class Features:
     left_wall: bool
     right_wall: bool
 
-    @property
-    def friction(self) -> bool:
-        return self.coulomb or self.viscous
-
     def describe(self) -> dict:
         return {
             "law": {LAW_LINEAR: "linear (n=2)", LAW_HERTZ: "hertz (n=5/2)",
