@@ -33,6 +33,11 @@ class Status(enum.IntEnum):
         return self.value >= 0
 
 
+# What a run ending with Status.OVERLAP tells the user to change.
+OVERLAP_ADVICE = ("the contact is too soft for this impact (granules would pass "
+                  "through each other): raise contacts.stiffness or lower the velocities")
+
+
 @dataclass(frozen=True)
 class Event:
     """One non-smooth moment of the motion.

@@ -18,7 +18,7 @@ from ._compile import specialised
 from .forces import net_forces, total_potential
 from .laws.friction import drift_tables
 from .model import Model, build_model
-from .result import EnergyLedger, Result, Status
+from .result import OVERLAP_ADVICE, EnergyLedger, Result, Status
 from .scene import Scene
 from .steppers import verlet
 from .units import scaled_parameters
@@ -40,10 +40,14 @@ class SimulationError(ValueError):
 
 
 def default_dt(model: Model, t_end: float = math.inf) -> float:
-    """1/200 of the shortest contact period (or collision time), at most t_end/100."""
+    """1/200 of the shortest contact period (or collision time), at most t_end/100,
+    shortened so that a whole number of steps ends exactly at a finite t_end."""
     T = model.shortest_period()
     dt = T / _DEFAULT_STEPS_PER_PERIOD if math.isfinite(T) else 1e-2
-    return min(dt, t_end / 100)
+    dt = min(dt, t_end / 100)
+    if math.isfinite(t_end):
+        dt = t_end / math.ceil(t_end / dt * (1 - 1e-12))
+    return dt
 
 
 def check_dt(model: Model, dt: float) -> None:
@@ -215,7 +219,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
             problem = _overlap_problem(model, u, limits)
             if problem:
                 status = Status.OVERLAP
-                message = f"{problem} at t = {t_now:.6g}; " + _OVERLAP_ADVICE
+                message = f"{problem} at t = {t_now:.6g}; " + OVERLAP_ADVICE
                 if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
                     message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
                                 f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
@@ -248,8 +252,6 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     return _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
 
 
-_OVERLAP_ADVICE = ("the contact is too soft for this impact (granules would pass "
-                   "through each other): raise contacts.stiffness or lower the velocities")
 
 
 def _overlap_limits(model: Model):

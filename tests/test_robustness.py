@@ -154,3 +154,39 @@ def test_soft_contact_pushed_through_is_refused_not_crossed():
     assert "contact 0 overlaps by" in r.message and "sum of the radii 0.875" in r.message
     assert "raise contacts.stiffness" in r.message
     assert np.all(np.diff(r.x, axis=1) > 0)
+
+
+@pytest.mark.parametrize("law", [2.0, 2.5])
+@pytest.mark.parametrize("friction", [None, {"viscous": [0.1, 0.0]}, {"kinetic": [0.1, 0.1]}])
+def test_event_stepper_stops_where_the_centres_meet(law, friction):
+    # The same soft collision with the event stepper: reaching r_0 + r_1 is an
+    # event located like the others (the closed-form two-granule path can
+    # otherwise span the whole contact in one step and never look at it).
+    g = {"count": 2, "mass": 2.0, "radius": [0.5, 0.375], "velocity": [2.0, 0.0]}
+    if friction:
+        g["friction"] = friction
+    s = scene(granules=g, contacts={"exponent": law},
+              run={"t_end": 8.0, "stepper": "event"}, output={"every": 10**9})
+    r = gc.simulate(s)
+    assert r.status == gc.Status.OVERLAP and not r.success
+    assert "contact 0 reached an overlap equal to the sum of the radii" in r.message
+    assert "raise contacts.stiffness" in r.message
+    overlap = 0.875 - (r.x_final[1] - r.x_final[0])
+    assert overlap == pytest.approx(0.875, abs=1e-12)
+    if law == 2.0 and friction is None:
+        # relative motion delta = 2 sin t (reduced mass 1, k = 1): delta = 0.875 at asin(0.4375)
+        assert r.t_final == pytest.approx(math.asin(0.4375), rel=1e-14)
+
+
+def test_event_stepper_overlap_in_a_chain_and_at_a_wall():
+    chain = scene(granules={"count": 5, "mass": 2.0, "velocity": {0: 2.0}},
+                  contacts={"exponent": 2.5}, run={"t_end": 8.0, "stepper": "event"})
+    r = gc.simulate(chain)
+    assert r.status == gc.Status.OVERLAP and "contact 0 reached" in r.message
+    wall = scene(granules={"count": 1, "mass": 2.0, "velocity": 3.0},
+                 walls={"right": {"gap": 0.0}}, run={"t_end": 8.0, "stepper": "event"})
+    r = gc.simulate(wall)
+    assert r.status == gc.Status.OVERLAP and "right wall" in r.message
+    stiff = scene(granules={"count": 5, "velocity": {0: 1.0}}, contacts={"exponent": 2.5},
+                  run={"t_end": 20.0, "stepper": "event"})
+    assert gc.simulate(stiff).status == gc.Status.T_END  # no false alarm

@@ -22,7 +22,7 @@ import numpy as np
 
 from .._compile import specialised
 from ..model import LAW_LINEAR, Model
-from ..result import EnergyLedger, Event, Result, Status
+from ..result import OVERLAP_ADVICE, EnergyLedger, Event, Result, Status
 from . import events_kernel as K
 from .verlet import EVENT_KINDS
 
@@ -197,9 +197,9 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
     gflag = np.zeros(N, dtype=np.int8)
     old_c = np.zeros(N + 1, dtype=np.int8)
     old_s = np.zeros(N, dtype=np.int8)
-    ctype = np.zeros(4 * N + 8, dtype=np.int64)
-    cidx = np.zeros(4 * N + 8, dtype=np.int64)
-    croot = np.zeros(4 * N + 8)
+    ctype = np.zeros(5 * N + 16, dtype=np.int64)
+    cidx = np.zeros(5 * N + 16, dtype=np.int64)
+    croot = np.zeros(5 * N + 16)
     fcap = 64
     if scene.output.dt is not None:
         fcap = min(int(settings.t_end / scene.output.dt) + 16, 1 << 20)
@@ -221,7 +221,7 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
             Q, wrk, mov, act, cand, cflag, gflag, old_c, old_s, ctype, cidx, croot,
             fr_t, fr_x, fr_v, fr_f, fr_e, ev_t, ev_k, ev_i, counts,
             np.zeros(K.EM.NPAR), np.zeros(2, dtype=np.int64), np.zeros(N, dtype=np.int8),
-            np.zeros(N, dtype=np.int64)]
+            np.zeros(N, dtype=np.int64), _overlap_limits(model)]
     kernel = specialised(K.run_events, tuple(args), (0, 1, 2))
     start = time.perf_counter()
     while True:
@@ -272,6 +272,17 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
         event_counts={k: int(n) for k, n in zip(EVENT_KINDS, counts)}, info=info)
 
 
+def _overlap_limits(model: Model) -> np.ndarray:
+    """Overlap of each kernel contact at which the centres meet (N + 1,):
+    r_(j-1) + r_j between granules, the granule's radius at a wall."""
+    r = model.radius
+    lim = np.empty(model.count + 1)
+    lim[1:-1] = r[:-1] + r[1:]
+    lim[0] = r[0]
+    lim[-1] = r[-1]
+    return lim
+
+
 def _time_fields(tscale: float) -> np.ndarray:
     """Factors that put the kernel's time-valued state entries in the scene's unit."""
     f = np.ones(9)
@@ -312,6 +323,17 @@ def _status(code, scene, model, st, ist, t, nev):
         return Status.ZENO, (f"events accumulate at t = {t:.15g}: {K.ZENO_BATCHES} consecutive "
                              f"event batches without time advancing by more than 1e-12 "
                              f"(relative); the modes chatter (Zeno), so the run stopped")
+    if code == K.C_OVERLAP:
+        j = int(ist[K.I_OVERLAP])
+        N = model.count
+        if j == 0:
+            where = "granule 0 reached the left wall's position with its centre"
+        elif j == N:
+            where = f"granule {N - 1} reached the right wall's position with its centre"
+        else:
+            where = (f"contact {j - 1} reached an overlap equal to the sum of the radii of "
+                     f"granules {j - 1} and {j} (their centres meet)")
+        return Status.OVERLAP, f"{where} at t = {t:.12g} (exact event time); " + OVERLAP_ADVICE
     if code == K.C_MAX_STEPS:
         return Status.MAX_STEPS, (f"stopped after run.max_steps = {settings.max_steps} Taylor "
                                   f"steps at t = {t:.12g}; raise run.max_steps or loosen run.rtol")

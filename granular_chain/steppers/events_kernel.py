@@ -70,6 +70,10 @@ C_ZENO = 4
 C_MAX_STEPS = 5
 C_BUFFER = 6
 C_NONFINITE = 7
+C_OVERLAP = 8
+
+# Candidate type of an overlap reaching its limit (the centres meet): ends the run.
+CAND_OVERLAP = -2
 
 
 # Float state slots.
@@ -79,7 +83,8 @@ S_T, S_TEND, S_OUTDT, S_WC, S_WV, S_LASTEV, S_JUMPFROM, S_HCAP, S_TLO = range(9)
 # relative error g*1e-13 in a velocity decaying like exp(-g t).
 # Int state slots.
 (I_STEPS, I_NEV, I_NFR, I_WATCH, I_STOPSEP, I_STOPREST, I_MAXEV, I_MAXSTEPS, I_STARTED,
- I_WATCHED, I_ZENO, I_FRAMEEV, I_JUMPED, I_FRAMEK, I_EVERY, I_BATCHES, I_NM) = range(17)
+ I_WATCHED, I_ZENO, I_FRAMEEV, I_JUMPED, I_FRAMEK, I_EVERY, I_BATCHES, I_NM,
+ I_OVERLAP) = range(18)
 
 ZENO_BATCHES = 200  # consecutive event batches in a vanishing time window = Zeno
 SAMPLES = 16
@@ -593,13 +598,16 @@ def _modal_energy(pm, mass, kc, d, v0, v1, du0, du1, slide, eta, coulomb):
 
 @numba.njit(cache=True, error_model="numpy")
 def _modal_step(law, coulomb, viscous, pm, st, ist, x0, u, v, dl, closed, present, slide, kc,
-                nexp, mass, eta, ctype, cidx, croot, fr_t, fr_x, fr_v, fr_f, fr_e):
+                nexp, mass, eta, ctype, cidx, croot, fr_t, fr_x, fr_v, fr_f, fr_e, lim):
     """One step of the exact modal solution (events_modal) from the mode's start.
 
     Returns (code, event, tau_e, ncand): code >= 0 ends the run; event = 1 when
     the step ended at the earliest candidate root (ctype/cidx/croot filled).
     Viscous work = energy lost - Coulomb work (both exact in the mode), so
-    the ledger closes by the energy theorem within the mode.
+    the ledger closes by the energy theorem within the mode. ``lim`` is the
+    overlap at which the centres meet; a step can span a whole contact, so
+    reaching it is a root like the others (searched only when the mode's
+    energy bound does not exclude it).
     """
     t = st[S_T]
     tlo = st[S_TLO]
@@ -612,7 +620,9 @@ def _modal_step(law, coulomb, viscous, pm, st, ist, x0, u, v, dl, closed, presen
     sl1 = coulomb and (s1 == 1 or s1 == -1)
     case = pm[EM.P_CASE]
     slipc = case != 0.0
-    sampled = pm[EM.P_B] != 0.0 or sl0 or sl1 or slipc
+    pm[EM.P_LIM] = lim
+    deep = EM.overlap_bound(pm) >= lim
+    sampled = pm[EM.P_B] != 0.0 or sl0 or sl1 or slipc or deep
     nsamp = 0
     if sampled:
         dts = EM.sample_step(pm)
@@ -640,6 +650,14 @@ def _modal_step(law, coulomb, viscous, pm, st, ist, x0, u, v, dl, closed, presen
         rh, rl = EM.first_root(pm, q + 1, h, nsamp)
         ctype[ncand] = EV_SLIP if q == 2 else EV_STOP
         cidx[ncand] = q if q < 2 else (1 if case == 1.0 else 0)
+        croot[ncand] = rh + rl
+        ncand += 1
+        if rh < bh or (rh == bh and rl < bl):
+            bh, bl = rh, rl
+    if deep:
+        rh, rl = EM.first_root(pm, 4, h, nsamp)
+        ctype[ncand] = CAND_OVERLAP
+        cidx[ncand] = 1
         croot[ncand] = rh + rl
         ncand += 1
         if rh < bh or (rh == bh and rl < bl):
@@ -768,13 +786,18 @@ def _add_contacts(i, present, cflag, act, na):
 def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, closed, present,
                slide, csl, kc, nexp, mass, eta, eta_s, gamma, U, V, D, Fc, Q, wrk,
                mov, act, cand, cflag, gflag, old_c, old_s, ctype, cidx, croot,
-               fr_t, fr_x, fr_v, fr_f, fr_e, ev_t, ev_k, ev_i, counts, pm, win, am, pos):
+               fr_t, fr_x, fr_v, fr_f, fr_e, ev_t, ev_k, ev_i, counts, pm, win, am, pos,
+               olim):
     """Advance the event-driven motion until a stop, t_end or a full buffer.
 
     All state lives in the arrays passed in, so the driver can grow the frame
     and event buffers and call again (code C_BUFFER). Shapes: N granules,
     N + 1 contacts (0 = left wall, N = right wall, ``present`` marks which
-    exist), series arrays (rows, P + 1).
+    exist), series arrays (rows, P + 1). ``olim`` (N + 1,): the overlap of
+    each contact at which the centres meet (r_(j-1) + r_j; a wall: the
+    granule's radius); reaching it ends the run with C_OVERLAP at the exact
+    time (ist[I_OVERLAP] = the contact), since past it the granules would
+    pass through each other.
     """
     law = literally(law)
     coulomb = literally(coulomb)
@@ -837,7 +860,7 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
                 gflag[i] = 0
             code_m, ev_m, tau_m, nc_m = _modal_step(
                 law, coulomb, viscous, pm, st, ist, x0, u, v, dl, closed, present, slide, kc,
-                nexp, mass, eta, ctype, cidx, croot, fr_t, fr_x, fr_v, fr_f, fr_e)
+                nexp, mass, eta, ctype, cidx, croot, fr_t, fr_x, fr_v, fr_f, fr_e, olim[1])
             if code_m >= 0:
                 return code_m
             if ev_m == 0:
@@ -1004,6 +1027,14 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
                         croot[ncand] = r2
                         ncand += 1
                         r = min(r, r2)
+                    # the centres meet: the contact model ends here (bound-excluded
+                    # at once unless the step can reach it)
+                    r3 = first_root(D[j], P, 1.0, olim[j], h)
+                    ctype[ncand] = CAND_OVERLAP
+                    cidx[ncand] = j
+                    croot[ncand] = r3
+                    ncand += 1
+                    r = min(r, r3)
                 else:
                     r = first_root(D[j], P, 1.0, 0.0, h)
                     ctype[ncand] = EV_CLOSE
@@ -1114,6 +1145,12 @@ def run_events(law, coulomb, viscous, P, rtol, atol, st, ist, x0, u, v, dl, clos
         # Roots of different event functions at one true instant agree to a few
         # ulps of tau: those are processed together (simultaneous events).
         tie = 16 * 2.2e-16 * tau_e
+        for q in range(ncand):
+            if ctype[q] == CAND_OVERLAP and croot[q] <= tau_e + tie:
+                ist[I_OVERLAP] = cidx[q]
+                _record(law, t_new, x0, u, v, dl, closed, present, kc, nexp, mass, st, ist,
+                        fr_t, fr_x, fr_v, fr_f, fr_e, 0.0, 0.0)
+                return C_OVERLAP
         for q in range(ncand):
             if croot[q] <= tau_e + tie:
                 kind = ctype[q]

@@ -51,7 +51,7 @@ SPLIT = 134217729.0  # 2^27 + 1
 
 # Parameter slots of the mode record ``p`` (float64[24]).
 (P_C, P_K, P_B, P_Y0, P_W0, P_DH, P_DL, P_OH, P_OL, P_V0, P_FM, P_CASE, P_A0, P_A1,
- P_D0, P_VI0, P_VI1, P_ETAS, P_KC, P_S0, P_S1, P_CM) = range(22)
+ P_D0, P_VI0, P_VI1, P_ETAS, P_KC, P_S0, P_S1, P_CM, P_LIM) = range(23)
 NPAR = 24
 
 
@@ -271,12 +271,14 @@ def state(p, th, tl):
 def g_event2(p, kind, th, tl):
     """Event function and its time derivative (g < 0 on the valid side):
     0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip of the stuck
-    granule (k delta > eta_s)."""
+    granule (k delta > eta_s), 4 overlap reaching P_LIM (the centres meet)."""
     delta, w, v0, v1, du0, du1 = state(p, th, tl)
     c = p[P_C]
     wd = p[P_B] - p[P_K] * delta - c * w  # delta''
     if kind == 0:
         return -delta, -w
+    if kind == 4:
+        return delta - p[P_LIM], w
     if kind == 3:
         return p[P_KC] * delta - p[P_ETAS], p[P_KC] * w
     case = p[P_CASE]
@@ -342,6 +344,21 @@ def sample_step(p):
     """Sampling interval: a quarter of the fastest time scale of the mode."""
     rate = max(math.sqrt(p[P_K]), 0.5 * p[P_C], abs(p[P_OH]))
     return 0.25 / rate
+
+
+@numba.njit(cache=True, error_model="numpy")
+def overlap_bound(p):
+    """Upper bound on delta over the whole mode (inf when there is none).
+
+    y = delta - b/K obeys y'' + c y' + K y = 0 with c >= 0, so K y^2 + w^2
+    never grows: delta <= b/K + sqrt(y0^2 + w0^2/K) at every time of the mode.
+    """
+    K = p[P_K]
+    if not (K > 0.0):
+        return math.inf
+    y0 = p[P_Y0]
+    w0 = p[P_W0]
+    return p[P_B] / K + math.sqrt(y0 * y0 + w0 * w0 / K)
 
 
 @numba.njit(cache=True, error_model="numpy")
