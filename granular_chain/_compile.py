@@ -37,6 +37,8 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     # A cheap key (numba.typeof on every argument costs more than a small run):
     # the literal values, and each argument's type, dtype, rank, layout and
     # writability (what numba.typeof puts in an array's type).
+    if not hasattr(dispatcher, "compile"):
+        return dispatcher  # NUMBA_DISABLE_JIT=1 (debugging): the plain Python function
     key = (dispatcher,) + tuple(
         a if i in literal else (type(a), getattr(a, "dtype", None), getattr(a, "ndim", None),
                                 (a.flags.c_contiguous, a.flags.writeable)

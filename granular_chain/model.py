@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._compile import specialised
+from .forces import total_potential
 from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
 from .scene import Scene
 
@@ -98,6 +100,16 @@ class Model:
     @property
     def count(self) -> int:
         return self.mass.size
+
+    def energies(self, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+        """Kinetic and elastic energy of the state (u, v), shapes (N,)."""
+        feat = self.features
+        args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, self.d0, self.k,
+                self.n, self.walls)
+        with np.errstate(over="ignore", invalid="ignore"):
+            ke = 0.5 * float(np.dot(self.mass, v * v))
+        pe = float(specialised(total_potential, args, (0, 1, 2))(*args))
+        return ke, pe
 
     def shortest_period(self) -> float:
         """Shortest small-oscillation period of any contact (for default dt and checks).

@@ -15,7 +15,7 @@ from typing import Optional, Union
 import numpy as np
 
 from ._compile import specialised
-from .forces import net_forces, total_potential
+from .forces import net_forces
 from .laws.friction import drift_tables
 from .model import Model, build_model
 from .result import OVERLAP_ADVICE, EnergyLedger, Result, Status
@@ -31,8 +31,8 @@ _DEFAULT_STEPS_PER_PERIOD = 200
 _DEFAULT_FRAMES = 1000
 _DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
 _UNSTABLE_BALANCE = 1.0
-_KERNEL_ARGS = verlet.verlet_chunk.py_func.__code__.co_varnames[
-    :verlet.verlet_chunk.py_func.__code__.co_argcount]
+_KERNEL_PY = getattr(verlet.verlet_chunk, "py_func", verlet.verlet_chunk)  # NUMBA_DISABLE_JIT
+_KERNEL_ARGS = _KERNEL_PY.__code__.co_varnames[:_KERNEL_PY.__code__.co_argcount]
 
 
 class SimulationError(ValueError):
@@ -83,16 +83,6 @@ class _Frames:
         self.pe.append(pe)
         self.dc.append(dc)
         self.dv.append(dv)
-
-
-def _energies(model: Model, u, v):
-    feat = model.features
-    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, model.d0, model.k,
-            model.n, model.walls)
-    with np.errstate(over="ignore", invalid="ignore"):
-        ke = 0.5 * float(np.dot(model.mass, v * v))
-    pe = float(specialised(total_potential, args, (0, 1, 2))(*args))
-    return ke, pe
 
 
 def _net_forces(model: Model, u, c, f):
@@ -174,7 +164,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
 
     limits = _overlap_limits(model)
     frames = _Frames()
-    ke0, pe0 = _energies(model, u, v)
+    ke0, pe0 = model.energies(u, v)
     e0 = ke0 + pe0
     frames.record(0.0, model.x0 + u, v, f, ke0, pe0, 0.0, 0.0)
 
@@ -224,7 +214,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                     message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
                                 f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
                 break
-            ke, pe = _energies(model, u, v)
+            ke, pe = model.energies(u, v)
             balance = abs(ke + pe + ledger[0] + ledger[1] - e0)
             if e0 > 0 and not balance <= _UNSTABLE_BALANCE * e0:
                 # A stable run balances its ledger to O(dt^2); an error as large

@@ -82,28 +82,51 @@ def _scales(model: Model):
     if not present_k:
         return None
     K0, n0 = present_k[0], present_n[0]
-    V = float(np.max(np.abs(model.v0)))
+    # Speed scale: the larger of the speed a granule of mass M would have with
+    # the most energetic granule's kinetic energy and the one it would have
+    # with the initial elastic energy, so that a precompressed scene starting
+    # at rest or at a tiny speed is scaled by the motion it will have.
+    V = float(np.max(np.abs(model.v0) * np.sqrt(model.mass / M)))
+    pe0 = model.energies(np.zeros(model.count), model.v0)[1]
+    V = max(V, math.sqrt(2.0 * pe0 / M))
     if V == 0.0:
         return None
-    A = (M * V * V / K0) ** (1.0 / n0)
-    B = A / V
+    # (M V^2/K0)^(1/n0) without forming V^2, which underflows below 1e-154
+    A = (M / K0) ** (1.0 / n0) * V ** (2.0 / n0)
+    B = (M / K0) ** (1.0 / n0) * V ** (2.0 / n0 - 1.0)
+    # A drag, or a kinetic friction, stopping the motion far faster than the
+    # collision (tiny speeds make B huge) sets the time scale instead: its
+    # series would overflow in units of B.
+    rate = max(float(np.max(model.gamma * model.inv_mass)) * B,
+               float(np.max(model.eta * model.inv_mass)) * B / V)
+    if rate > 1e3:
+        B /= rate
+        A /= rate
     if M == 1.0 and A == 1.0 and B == 1.0:
+        return None
+    if not all(1e-100 < x < 1e100 for x in (A, B, A / B)):
+        # Speeds near the underflow threshold (1e-300 and below): the scales
+        # themselves would lose their digits; such a scene hardly moves and
+        # is run as given.
         return None
     return M, A, B
 
 
 def _scaled_model(model: Model, M: float, A: float, B: float) -> Model:
-    F = M * A / (B * B)  # force scale
+    # Force coefficients k A^n / (F A) with F = M A / B^2 the force scale,
+    # written as k A^(n-2) B^2 / M and 1/F as (B/M)(B/A), so that no factor
+    # underflows for tiny speeds (A ~ 1e-300 at v = 1e-300).
     w = model.walls.copy()
     w[0] /= A
     w[3] /= A
-    w[1] = w[1] * A ** w[2] / (F * A)
-    w[4] = w[4] * A ** w[5] / (F * A)
+    w[1] = w[1] * A ** (w[2] - 2.0) * B * B / M
+    w[4] = w[4] * A ** (w[5] - 2.0) * B * B / M
+    inv_F = (B / M) * (B / A)
     return dataclasses.replace(
         model, mass=model.mass / M, inv_mass=model.inv_mass * M, radius=model.radius / A,
         x0=model.x0 / A, v0=model.v0 * (B / A), d0=model.d0 / A,
-        k=model.k * A ** model.n / (F * A), walls=w, eta=model.eta / F,
-        eta_static=model.eta_static / F, gamma=model.gamma * (B / M))
+        k=model.k * A ** (model.n - 2.0) * (B * B / M), walls=w, eta=model.eta * inv_F,
+        eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M))
 
 
 def simulate_events(scene, model: Model) -> Result:
@@ -337,5 +360,8 @@ def _status(code, scene, model, st, ist, t, nev):
     if code == K.C_MAX_STEPS:
         return Status.MAX_STEPS, (f"stopped after run.max_steps = {settings.max_steps} Taylor "
                                   f"steps at t = {t:.12g}; raise run.max_steps or loosen run.rtol")
-    return Status.NONFINITE, (f"non-finite state or step size at t = {t:.12g}: the series "
-                              f"diverged; check the scene's parameters")
+    return Status.NONFINITE, (f"non-finite state or step size at t = {t:.12g}: the Taylor "
+                              f"series diverged (a time scale of the scene is too short to "
+                              f"resolve: look for extreme ratios of speeds, overlaps and "
+                              f"friction, e.g. speeds near 1e-300); the Verlet stepper or "
+                              f"rescaled parameters may run it")
