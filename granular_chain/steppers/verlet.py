@@ -23,16 +23,47 @@ velocity carries an O(F dt / m) splitting error when c dt >> 1.)
 The compiled driver :func:`verlet_chunk` advances a whole chunk of steps
 (between two output frames) with no Python and no allocation inside. The
 feature codes are compile-time literals, so each feature set compiles (and is
-cached on disk) once and code for absent features is not generated. A step
-makes three passes over the chain: kick + drift, contact forces, then net
-force + kick + contact events; the middle one vectorises.
+cached on disk) once and code for absent features is not generated.
+
+A step is three passes: (1) first kick + drift, (2) contact forces and contact
+events, (3) net force + second kick. Run over the whole chain one after the
+other, they would stream every array from memory three times per step once the
+chain outgrows the caches (N >~ 1e5). So the step is *cache-blocked*: the chain
+is walked in blocks of ``BLOCK`` granules, and for each block [a, b) the three
+passes run back to back, software-pipelined by one granule:
+
+* pass 1 on granules a .. b-1;
+* pass 2 on the contacts whose two granules are now drifted, max(a-1, 0) .. b-2
+  (the left wall with the first block, the right wall with the last);
+* pass 3 on the granules whose two contacts are now known, a-1 .. b-2 (to N-1
+  on the last block).
+
+A block's arrays (about 10 x 8 KiB for BLOCK = 1024) stay in L1/L2 between the
+passes, so u, v, f and the parameters come from memory once per step. The
+contact forces live in a block-local buffer (the last one carried to the next
+block), as do the displacements of the step of drag-only scenes, so neither is
+ever written to memory. Every pass stays a simple loop over a block with no
+loop-carried value except reductions, so each still vectorises (with Coulomb
+friction too, unlike a single fused sweep, which has to carry granule i+1's new
+state from one iteration to the next). Each granule sees the same operations
+as in the unblocked three passes, so results are bit-identical to them; only
+the order of the ledger and event sums changes. The separation watch reads its
+contact before the step starts.
 """
 
 import numba
+import numpy as np
 from numba import literally
 
-from ..forces import contact_forces, wall_forces
+from ..forces import wall_forces
+from ..laws.contact import contact_force
 from ..laws.friction import coulomb_kick, free_kick, viscous_drift
+
+# Granules per block of the tiled step (see the module docstring).
+BLOCK = 1024
+
+ONE = np.uint64(1)
+TWO = np.uint64(2)
 
 # Stop codes returned by the driver.
 RAN_CHUNK = 0
@@ -71,7 +102,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
     u, v, f : ndarray, shape (N,)
         Displacements, velocities and net spring forces (f consistent with u on entry).
     c : ndarray, shape (max(N-1, 1),)
-        Contact forces (work array).
+        Not used (kept for the call signature): the contact forces live in a
+        block-local buffer of BLOCK + 2 values, never written back to memory.
     active : ndarray of uint8, shape (max(N-1, 1),)
         1 where the contact is closed (delta > 0); updated, for event counting.
     d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2 : ndarray
@@ -79,7 +111,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
         the per-granule drag coefficients exp(-c dt), phi1(c, dt), phi2(c, dt),
         c = gamma/m.
     du : ndarray, shape (N,)
-        Work array (displacements of the step, viscous scenes).
+        Not used (kept for the call signature): the displacements of the step
+        (viscous scenes) live in a block-local buffer.
     dt : float
         Time step.
     n_steps : int
@@ -107,64 +140,94 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
     h = 0.5 * dt
     inv_dt = 1.0 / dt
     N = u.size
+    # Block-local work arrays (allocated once per chunk, stay in L1):
+    # cb[j] = force of contact a - 2 + j for the block [a, b) (cb[1] = left wall
+    # force on the first block, cb[b - a + 1] = right wall force on the last);
+    # dub[j] = displacement of the step of granule a - 1 + j (viscous scenes).
+    cb = np.zeros(BLOCK + 2)
+    dub = np.zeros(BLOCK + 1)
     for step in range(n_steps):
         wc = 0.0
         wv = 0.0
         n_stop = 0
         n_slip = 0
-        # Pass 1: first half kick and drift.
-        for i in range(N):
-            if viscous and not coulomb:
-                # Exponential Verlet: exact for drag, second order for springs.
-                vv = v[i]
-                a = f[i] * inv_m[i]
-                dui = vv * P1[i] + a * P2[i]
-                u[i] += dui
-                du[i] = dui
-                v[i] = vv * E[i] + a * (P1[i] - P2[i] * inv_dt)
-                wv -= 0.5 * m[i] * vv * vv + 0.5 * f[i] * dui
-                continue
-            v1, a, b, code = kick(coulomb, i, v[i], f[i], inv_m, eta, eta_s, h)
-            wc += a
-            n_stop += code & 1
-            n_slip += (code >> 1) & 1
-            if viscous:
-                dui, v1, b = viscous_drift(v1, m[i], E[i], P1[i])
-                u[i] += dui
-                wv += b
-            else:
-                u[i] += dt * v1
-            v[i] = v1
-        # Pass 2: contact forces at the new positions (vectorised).
-        contact_forces(law, u, d0, k, n, c)
-        fl, fr = wall_forces(law, left_wall, right_wall, u, walls)
-        if stop_mode & STOP_ON_SEPARATION:
-            watched_was = active[stop_contact]
-        # Pass 3: net force, second half kick, contact events.
         n_close = 0
         n_open = 0
-        for i in range(N):
-            left = c[i - 1] if i > 0 else fl
-            right = c[i] if i < N - 1 else fr
-            F = left - right
-            f[i] = F
-            if viscous and not coulomb:
-                v1 = v[i] + F * inv_m[i] * P2[i] * inv_dt
-                v[i] = v1
-                # viscous work = change of kinetic energy - trapezoidal spring work
-                wv += 0.5 * m[i] * v1 * v1 - 0.5 * F * du[i]
-            else:
-                v1, a, b, code = kick(coulomb, i, v[i], F, inv_m, eta, eta_s, h)
-                v[i] = v1
-                wc += a
+        n_moving = 0
+        if stop_mode & STOP_ON_SEPARATION:
+            watched_was = active[stop_contact]
+        for a in range(0, N, BLOCK):
+            b = min(a + BLOCK, N)
+            # Unsigned loop indices: a signed index from a non-zero start gets
+            # numba's negative-index wraparound test, which stops vectorisation
+            # (3x slower). Block-local offsets are written (i + j) - ua >= 0.
+            ua = np.uint64(a)
+            ub = np.uint64(b)
+            ulo = np.uint64(max(a - 1, 0))
+            ue = np.uint64(N if b == N else b - 1)
+            # Pass 1: first half kick and drift of granules [a, b).
+            for i in range(ua, ub):
+                if viscous and not coulomb:
+                    # Exponential Verlet: exact for drag, second order for springs.
+                    vv = v[i]
+                    fi = f[i]
+                    ai = fi * inv_m[i]
+                    dui = vv * P1[i] + ai * P2[i]
+                    u[i] += dui
+                    dub[i + ONE - ua] = dui
+                    v[i] = vv * E[i] + ai * (P1[i] - P2[i] * inv_dt)
+                    wv -= 0.5 * m[i] * vv * vv + 0.5 * fi * dui
+                    continue
+                v1, w1, w2, code = kick(coulomb, i, v[i], f[i], inv_m, eta, eta_s, h)
+                wc += w1
                 n_stop += code & 1
                 n_slip += (code >> 1) & 1
-            if i < N - 1:
-                now = 1 if right > 0.0 else 0
+                if viscous:
+                    dui, v1, w2 = viscous_drift(v1, m[i], E[i], P1[i])
+                    u[i] += dui
+                    wv += w2
+                else:
+                    u[i] += dt * v1
+                v[i] = v1
+            # Walls: the left one acts on granule 0 (first block), the right
+            # one on granule N-1 (last block).
+            if a == 0:
+                fl, fr = wall_forces(law, left_wall, 0, u, walls)
+                cb[1] = fl
+            if b == N:
+                fl, fr = wall_forces(law, 0, right_wall, u, walls)
+                cb[b - a + 1] = fr
+            # Pass 2: contacts whose two granules are drifted, max(a-1, 0) .. b-2
+            # (vectorised; the event counts are reductions).
+            for i in range(ulo, ub - ONE):
+                ci = contact_force(law, d0[i] + u[i] - u[i + ONE], k[i], n[i])
+                cb[i + TWO - ua] = ci
+                now = 1 if ci > 0.0 else 0
                 was = active[i]
                 n_close += now & (1 - was)
                 n_open += was & (1 - now)
                 active[i] = now
+            # Pass 3: net force and second half kick of the granules whose two
+            # contacts are known: a-1 .. b-2, or to N-1 on the last block.
+            for i in range(ulo, ue):
+                F = cb[i + ONE - ua] - cb[i + TWO - ua]
+                f[i] = F
+                if viscous and not coulomb:
+                    v1 = v[i] + F * inv_m[i] * P2[i] * inv_dt
+                    # viscous work = change of kinetic energy - trapezoidal spring work
+                    wv += 0.5 * m[i] * v1 * v1 - 0.5 * F * dub[i + ONE - ua]
+                else:
+                    v1, w1, w2, code = kick(coulomb, i, v[i], F, inv_m, eta, eta_s, h)
+                    wc += w1
+                    n_stop += code & 1
+                    n_slip += (code >> 1) & 1
+                v[i] = v1
+                if stop_mode & STOP_ON_REST:
+                    n_moving += 1 if v1 != 0.0 else 0
+            # Carry the block's last contact (and displacement) to the next block.
+            cb[0] = cb[b - a]
+            if viscous and not coulomb:
+                dub[0] = dub[b - a]
         if coulomb:
             ledger[0] -= wc
             counts[EV_STOP] += n_stop
@@ -177,11 +240,6 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
             if watched_was == 1 and active[stop_contact] == 0:
                 return step + 1, SEPARATED
         if stop_mode & STOP_ON_REST:
-            rest = True
-            for i in range(N):
-                if v[i] != 0.0:
-                    rest = False
-                    break
-            if rest:
+            if n_moving == 0:
                 return step + 1, AT_REST
     return n_steps, RAN_CHUNK
