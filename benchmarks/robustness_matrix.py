@@ -36,10 +36,10 @@ def run_scene(s):
 
 def cases(stepper):
     yield ("mass ratio 1e-6", "elastic: v = ((m1-m2)/(m1+m2), 2 m1/(m1+m2))",
-           lambda: run_scene(scene(stepper, granules={"count": 2, "mass": [1.0, 1e-6], "velocity": [1.0, 0.0]},
+           lambda: run_scene(scene(stepper, granules={"count": 2, "mass": [1.0, 1e-6], "velocity": [1.0, 0.0], "radius": 1.0},
                                    run={"stop": "separation", "t_end": 1e4})))
     yield ("mass ratio 1e6", "elastic: v = ((m1-m2)/(m1+m2), 2 m1/(m1+m2))",
-           lambda: run_scene(scene(stepper, granules={"count": 2, "mass": [1.0, 1e6], "velocity": [1.0, 0.0]},
+           lambda: run_scene(scene(stepper, granules={"count": 2, "mass": [1.0, 1e6], "velocity": [1.0, 0.0], "radius": 1.0},
                                    run={"stop": "separation", "t_end": 1e4})))
     yield ("stiffness ratio 1e6 (3 granules)", "success, ledger closes",
            lambda: run_scene(scene(stepper, granules={"count": 3, "velocity": {0: 1.0}},
@@ -63,11 +63,16 @@ def cases(stepper):
                                    contacts={"exponent": 2.5},
                                    walls={"left": {"gap": -0.2, "exponent": 2.5}, "right": {"gap": -0.2, "exponent": 2.5}},
                                    run={"t_end": 50.0})))
-    for v0 in (1e-8, 1e3):
-        yield (f"impact speed {v0:g}, Hertz", "exchange, t_c ~ v^(-1/5)",
-               lambda v0=v0: run_scene(scene(stepper, granules={"count": 2, "velocity": [v0, 0.0]},
-                                             contacts={"exponent": 2.5},
-                                             run={"stop": "separation", "t_end": 1e6})))
+    for v0, radius in ((1e-8, 0.5), (1e3, 500.0)):
+        yield (f"impact speed {v0:g}, Hertz, radius {radius:g}", "exchange, t_c ~ v^(-1/5)",
+               lambda v0=v0, radius=radius: run_scene(scene(
+                   stepper, granules={"count": 2, "velocity": [v0, 0.0], "radius": radius},
+                   contacts={"exponent": 2.5}, run={"stop": "separation", "t_end": 1e6})))
+    yield ("impact speed 1000, Hertz, radius 0.5 (overlap would reach 208)",
+           "status overlap, clear message",
+           lambda: run_scene(scene(stepper, granules={"count": 2, "velocity": [1e3, 0.0]},
+                                   contacts={"exponent": 2.5},
+                                   run={"stop": "separation", "t_end": 1e6})))
     yield ("soft contact pushed through", "status overlap, clear message",
            lambda: run_scene(scene(stepper, granules={"count": 2, "mass": 2.0, "radius": [0.5, 0.375],
                                                       "velocity": [2.0, 0.0]}, run={"t_end": 8.0})))
@@ -77,12 +82,12 @@ def cases(stepper):
         yield ("N = 1e6, 50 steps", "success", lambda: run_scene(gc.scene_from_dict(
             {"granules": {"count": 1_000_000, "velocity": {0: 1.0}}, "contacts": {"exponent": 2.5},
              "run": {"dt": 1e-2, "t_end": 0.5}})))
-        yield ("1e7 steps, 2 granules between stiff walls", "bounded ledger error",
+        yield ("1e8 steps, 2 granules between stiff walls", "bounded ledger error",
                lambda: run_scene(scene(stepper, granules={"count": 2, "velocity": [1.0, -0.5], "gap": 0.3},
                                        contacts={"exponent": 2.5, "stiffness": 100.0},
                                        walls={"left": {"gap": 0.2, "exponent": 2.5, "stiffness": 100.0},
                                               "right": {"gap": 0.2, "exponent": 2.5, "stiffness": 100.0}},
-                                       run={"dt": 1e-3, "t_end": 1e4}, output={"every": 100000})))
+                                       run={"dt": 1e-3, "t_end": 1e5}, output={"every": 1_000_000})))
 
 
 def _collide(stepper, **kw):

@@ -177,7 +177,8 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
             int(feat.right_wall), stop_mode, u, v, f, c, active, model.d0, model.k,
             model.n, model.walls, model.mass, model.inv_mass, model.eta,
-            model.eta_static, E, P1, P2, du, dt, 0, stop_contact, ledger, counts]
+            model.eta_static, E, P1, P2, du, dt, 0, stop_contact, ledger, counts,
+            *_overlap_caps(model)]
     kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
     n_steps_at = _KERNEL_ARGS.index("n_steps")
     try:
@@ -248,6 +249,17 @@ def _overlap_limits(model: Model):
     """Overlaps at which centres meet: r_i + r_(i+1) for contacts, r for a wall's granule."""
     r = model.radius
     return r[:-1] + r[1:], r[0], r[-1]
+
+
+def _overlap_caps(model: Model):
+    """Kernel form of the limits: olim (N + 1,) (left wall, contacts, right wall)
+    and the smallest contact force at which a contact reaches its limit."""
+    lim, left, right = _overlap_limits(model)
+    olim = np.concatenate(([left], lim, [right]))
+    with np.errstate(over="ignore"):
+        f_at = model.k * lim ** (model.n - 1.0)
+    fcap = float(np.min(f_at)) if f_at.size else math.inf
+    return olim, fcap
 
 
 def _overlap_problem(model: Model, u, limits) -> str:

@@ -69,6 +69,7 @@ TWO = np.uint64(2)
 RAN_CHUNK = 0
 SEPARATED = 1
 AT_REST = 2
+OVERLAPPED = 3  # an overlap reached the sum of the radii (the centres met)
 
 # Stop-mode bits.
 STOP_ON_SEPARATION = 1
@@ -91,7 +92,7 @@ def kick(coulomb, i, v, F, inv_m, eta, eta_s, h):
 @numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
 def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
                  u, v, f, c, active, d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2, du,
-                 dt, n_steps, stop_contact, ledger, counts):
+                 dt, n_steps, stop_contact, ledger, counts, olim, fcap):
     """Advance the state by up to ``n_steps`` velocity-Verlet steps, in place.
 
     Parameters
@@ -123,13 +124,21 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
         Accumulated energy dissipated by Coulomb and by viscous friction (>= 0).
     counts : ndarray of int64, shape (4,)
         Accumulated event counts (close, open, stop, slip).
+    olim : ndarray, shape (N + 1,)
+        Overlaps at which the centres meet: the left wall's granule radius,
+        r_i + r_(i+1) for each contact, the right wall's granule radius.
+    fcap : float
+        The smallest contact force at which some contact reaches its olim:
+        only a step whose largest contact force reaches it checks the
+        overlaps themselves (a max-reduction in the vectorised contact loop
+        is all the check costs otherwise).
 
     Returns
     -------
     steps : int
         Steps taken.
     code : int
-        RAN_CHUNK, SEPARATED or AT_REST.
+        RAN_CHUNK, SEPARATED, AT_REST or OVERLAPPED.
     """
     law = literally(law)
     coulomb = literally(coulomb)
@@ -154,6 +163,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
         n_close = 0
         n_open = 0
         n_moving = 0
+        cmax = 0.0
         if stop_mode & STOP_ON_SEPARATION:
             watched_was = active[stop_contact]
         for a in range(0, N, BLOCK):
@@ -202,6 +212,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
             for i in range(ulo, ub - ONE):
                 ci = contact_force(law, d0[i] + u[i] - u[i + ONE], k[i], n[i])
                 cb[i + TWO - ua] = ci
+                cmax = max(cmax, ci)
                 now = 1 if ci > 0.0 else 0
                 was = active[i]
                 n_close += now & (1 - was)
@@ -236,6 +247,18 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
             ledger[1] -= wv
         counts[EV_CLOSE] += n_close
         counts[EV_OPEN] += n_open
+        # Granules passing through each other (a contact too soft for the
+        # impact) can come out again between two output frames: checked every step.
+        if cmax >= fcap:
+            for i in range(N - 1):
+                if d0[i] + u[i] - u[i + 1] >= olim[i + 1]:
+                    return step + 1, OVERLAPPED
+        if left_wall:
+            if walls[0] - u[0] >= olim[0]:
+                return step + 1, OVERLAPPED
+        if right_wall:
+            if walls[3] + u[N - 1] >= olim[N]:
+                return step + 1, OVERLAPPED
         if stop_mode & STOP_ON_SEPARATION:
             if watched_was == 1 and active[stop_contact] == 0:
                 return step + 1, SEPARATED
