@@ -129,9 +129,9 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
         r_i + r_(i+1) for each contact, the right wall's granule radius.
     fcap : float
         The smallest contact force at which some contact reaches its olim:
-        only a step whose largest contact force reaches it checks the
-        overlaps themselves (a max-reduction in the vectorised contact loop
-        is all the check costs otherwise).
+        only a step with a contact force reaching it checks the overlaps
+        themselves (a count in the vectorised contact loop is all the check
+        costs otherwise).
 
     Returns
     -------
@@ -163,7 +163,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
         n_close = 0
         n_open = 0
         n_moving = 0
-        cmax = 0.0
+        n_hard = 0
         if stop_mode & STOP_ON_SEPARATION:
             watched_was = active[stop_contact]
         for a in range(0, N, BLOCK):
@@ -212,7 +212,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
             for i in range(ulo, ub - ONE):
                 ci = contact_force(law, d0[i] + u[i] - u[i + ONE], k[i], n[i])
                 cb[i + TWO - ua] = ci
-                cmax = max(cmax, ci)
+                n_hard += 1 if ci >= fcap else 0  # an integer reduction: vectorises
                 now = 1 if ci > 0.0 else 0
                 was = active[i]
                 n_close += now & (1 - was)
@@ -249,7 +249,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
         counts[EV_OPEN] += n_open
         # Granules passing through each other (a contact too soft for the
         # impact) can come out again between two output frames: checked every step.
-        if cmax >= fcap:
+        if n_hard > 0:
             for i in range(N - 1):
                 if d0[i] + u[i] - u[i + 1] >= olim[i + 1]:
                     return step + 1, OVERLAPPED
