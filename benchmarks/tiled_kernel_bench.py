@@ -28,7 +28,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 import throughput  # noqa: E402
-from granular_chain import simulate as sim  # noqa: E402
+sim = importlib.import_module("granular_chain.simulate")
 from granular_chain._compile import specialised  # noqa: E402
 from granular_chain.model import build_model  # noqa: E402
 from granular_chain.steppers import verlet  # noqa: E402
