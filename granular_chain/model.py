@@ -168,7 +168,7 @@ def friction_features(eta, eta_static, gamma):
     arrays of shape (..., N) give boolean arrays of shape (...).
     """
     eta, eta_static, gamma = (np.asarray(a) for a in (eta, eta_static, gamma))
-    coulomb = (eta > 0).any(axis=-1) | (eta_static > 0).any(axis=-1)
+    coulomb = ((eta > 0) | (eta_static > 0)).any(axis=-1)
     return coulomb, (gamma > 0).any(axis=-1)
 
 

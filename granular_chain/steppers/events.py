@@ -333,8 +333,9 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
     pe0 = float(fr_e[0, 1])
     e0 = packed.ke0 + pe0
     t_final = float(st[K.S_T])
-    status, message = _status(code, scene, model, st * _time_fields(tscale), ist,
-                              t_final * tscale, nev)
+    if tscale != 1.0:  # (times 1.0 is exact: skip the arrays for the common case)
+        st = st * _time_fields(tscale)
+    status, message = _status(code, scene, model, st, ist, t_final * tscale, nev)
     energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                           coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
                           initial=e0)
@@ -580,7 +581,7 @@ class EventBatch:
         """
         shape = (len(eta), self.model.count)
         arrs = [np.ascontiguousarray(x, dtype=np.float64) for x in (eta, eta_static, gamma)]
-        if any(x.shape != shape for x in arrs):
+        if not arrs[0].shape == arrs[1].shape == arrs[2].shape == shape:
             raise ValueError(f"eta, eta_static and gamma must all have shape {shape}")
         call = self._call_args(*arrs)
         M = shape[0]
