@@ -39,11 +39,7 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     # writability (what numba.typeof puts in an array's type).
     if not hasattr(dispatcher, "compile"):
         return dispatcher  # NUMBA_DISABLE_JIT=1 (debugging): the plain Python function
-    key = (dispatcher,) + tuple(
-        a if i in literal else (type(a), getattr(a, "dtype", None), getattr(a, "ndim", None),
-                                (a.flags.c_contiguous, a.flags.writeable)
-                                if hasattr(a, "flags") else None)
-        for i, a in enumerate(args))
+    key = (dispatcher,) + tuple(a if i in literal else _type_key(a) for i, a in enumerate(args))
     entry = _ENTRIES.get(key)
     if entry is None:
         sig = tuple(types.literal(a) if i in literal else numba.typeof(a)
@@ -52,3 +48,13 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
         entry = dispatcher.overloads[sig].entry_point
         _ENTRIES[key] = entry
     return entry
+
+
+def _type_key(a):
+    """What numba.typeof puts in an argument's type: type, dtype, rank, layout and
+    writability of an array; the same for each member of a tuple."""
+    if isinstance(a, tuple):
+        return tuple(_type_key(b) for b in a)
+    if hasattr(a, "flags"):
+        return (type(a), a.dtype, a.ndim, a.flags.c_contiguous, a.flags.writeable)
+    return type(a)

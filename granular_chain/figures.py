@@ -23,14 +23,14 @@ function             paper figure
 ``fig_finalv1m5``    Fig. ``finalv1m5``: v1 vs gamma, delta = -0.1, 0, 0.1
 ===================  ====================================================
 
-Cost.  One ``collide`` call costs about 0.5 ms, of which the compiled event
-kernel is about 0.05 ms: the rest is Python (scene validation, model packing and
-numba's argument typing when the stepper looks up its compiled entry point).
-The (eta1, eta2) maps are therefore split into row blocks over a ``fork`` process
-pool (default 2 processes; children inherit the compiled kernels, so nothing is
-recompiled): 100 x 100 collisions take 2.4 s on 2 idle cores (5.6 s in one
-process; 5-7 s when other jobs keep the load average at 3-4).  The 1-D curves
-(a few hundred collisions each) run in this process: under a second each.
+Cost.  The collisions of every figure run through
+:func:`~granular_chain.two_granules.collision_map`: the scene is validated and
+packed once per friction feature set and the points run in a compiled loop, so
+a collision costs what the event kernel costs (20-40 us where at most one
+granule has friction, ~100-200 us with Coulomb friction on both, a few ms at a
+point whose modes chatter).  The (eta1, eta2) map is split into row blocks over
+a ``fork`` process pool (default 2 processes; children inherit the compiled
+kernels, so nothing is recompiled).
 
 Command line (wired in :mod:`granular_chain.cli`)::
 
@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import multiprocessing
 import os
 import sys
 import time
@@ -51,7 +50,8 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from . import paper
-from .two_granules import Outcome, collide
+from .result import Status
+from .two_granules import Outcome, collide, collision_map
 
 __all__ = [
     "collision_values", "collision_grid", "hertz_maps",
@@ -70,17 +70,6 @@ _BOTH = OUTCOME_NAMES.index("backscatter_and_propagation")
 # ----------------------------------------------------------------------------
 # running many collisions
 # ----------------------------------------------------------------------------
-def _one(n, eta1, eta2, gamma1, gamma2):
-    c = collide(n, eta=(eta1, eta2), gamma=(gamma1, gamma2), stepper="event")
-    stop = [e.t for e in c.result.events if e.kind == "stop" and e.index == 0]
-    return (c.v1, c.v2, c.energy_ratio, c.t_separation, OUTCOME_NAMES.index(c.outcome.name),
-            stop[0] if stop else math.nan)
-
-
-def _rows(task):
-    return [_one(*p) for p in task]
-
-
 def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> dict:
     """Collide two granules (event stepper) at each point and collect the results.
 
@@ -91,7 +80,8 @@ def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> d
     points : sequence of (eta1, eta2, gamma1, gamma2)
         Scaled friction parameters, P points.
     processes : int
-        Worker processes (``fork``); 1 runs in this process.
+        Worker processes (``fork``, over blocks of 2000 points or more); 1 runs in
+        this process.
 
     Returns
     -------
@@ -100,21 +90,20 @@ def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> d
         ``t_sep`` (separation time, units of B; inf if never), ``outcome``
         (index into :data:`OUTCOME_NAMES`), ``t_stop1`` (first stop of granule 1,
         NaN if it never stops).
+
+    Raises
+    ------
+    RuntimeError
+        A run failed (as :func:`collide` would raise).
     """
-    pts = [tuple(float(a) for a in p) for p in points]
-    tasks = [[(n,) + p for p in pts]]
-    if processes > 1 and len(pts) > 200 and "fork" in multiprocessing.get_all_start_methods():
-        # one task per ~50 points: few enough that pickling is negligible, many enough
-        # that both workers stay busy to the end
-        size = max(50, len(pts) // (processes * 20))
-        tasks = [[(n,) + p for p in pts[i:i + size]] for i in range(0, len(pts), size)]
-        with multiprocessing.get_context("fork").Pool(processes) as pool:
-            rows = [r for chunk in pool.map(_rows, tasks) for r in chunk]
-    else:
-        rows = _rows(tasks[0])
-    a = np.array(rows, dtype=float).reshape(len(pts), 6)
-    return {"v1": a[:, 0], "v2": a[:, 1], "energy": a[:, 2], "t_sep": a[:, 3],
-            "outcome": a[:, 4].astype(int), "t_stop1": a[:, 5]}
+    pts = np.array([tuple(float(a) for a in p) for p in points], dtype=float).reshape(-1, 4)
+    m = collision_map(pts[:, 0], pts[:, 1], n, gamma=(pts[:, 2], pts[:, 3]), workers=processes)
+    if m.failed.any():
+        i = int(np.flatnonzero(m.failed)[0])
+        raise RuntimeError(f"the collision run failed at (eta1, eta2, gamma1, gamma2) = "
+                           f"{tuple(pts[i])}: status {Status(int(m.status[i])).name}")
+    return {"v1": m.v1, "v2": m.v2, "energy": m.energy_ratio, "t_sep": m.t_separation,
+            "outcome": m.outcome.astype(int), "t_stop1": m.t_stop1}
 
 
 def collision_grid(n: float, eta1: np.ndarray, eta2: np.ndarray, processes: int = 2) -> dict:

@@ -23,7 +23,8 @@ from .forces import total_potential
 from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
 from .scene import Scene
 
-__all__ = ["Features", "Model", "build_model", "LAW_LINEAR", "LAW_HERTZ", "LAW_POWER"]
+__all__ = ["Features", "Model", "build_model", "friction_features", "LAW_LINEAR", "LAW_HERTZ",
+           "LAW_POWER"]
 
 @dataclass(frozen=True)
 class Features:
@@ -171,6 +172,18 @@ def hertz_stiffness(young_a, poisson_a, young_b, poisson_b, r_a, r_b):
     return 4.0 / 3.0 * e_star * np.sqrt(r_star)
 
 
+def friction_features(eta, eta_static, gamma):
+    """Which friction a scene has: (coulomb, viscous) from the per-granule arrays.
+
+    Coulomb friction is present when some granule has eta > 0 or a static
+    threshold > 0, viscous friction when some gamma > 0. Works on a batch too:
+    arrays of shape (..., N) give boolean arrays of shape (...).
+    """
+    eta, eta_static, gamma = (np.asarray(a) for a in (eta, eta_static, gamma))
+    coulomb = ((eta > 0) | (eta_static > 0)).any(axis=-1)
+    return coulomb, (gamma > 0).any(axis=-1)
+
+
 def build_model(scene: Scene) -> Model:
     """Pack a validated scene into a :class:`Model`."""
     g = scene.granules
@@ -213,10 +226,11 @@ def build_model(scene: Scene) -> Model:
         law = LAW_HERTZ
     else:
         law = LAW_POWER
+    coulomb, viscous = friction_features(eta, eta_s, gamma)
     features = Features(
         law=law,
-        coulomb=bool(np.any(eta > 0) or np.any(eta_s > 0)),
-        viscous=bool(np.any(gamma > 0)),
+        coulomb=bool(coulomb),
+        viscous=bool(viscous),
         left_wall=left is not None,
         right_wall=right is not None,
     )

@@ -18,6 +18,8 @@ import dataclasses
 import math
 import time
 
+import numba
+from numba import literally
 import numpy as np
 
 from .._compile import specialised
@@ -167,6 +169,73 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
         cadence only, to bound memory), at the ``output.dt`` cadence, and at the
         end; ``events`` the full event log; ``steps`` the Taylor steps taken.
     """
+    packed = _pack_run(scene, model)
+    code, wall = _drive(packed)
+    return _build_result(packed, code, wall, scene, model, tscale)
+
+
+# Argument positions of the kernel (run_events), by name.
+_KARGS = K.run_events.py_func.__code__.co_varnames[:K.run_events.py_func.__code__.co_argcount]
+_A = {name: i for i, name in enumerate(_KARGS)}
+
+
+@dataclasses.dataclass
+class _Packed:
+    """The kernel's arguments for one run, and what the result is built from."""
+
+    args: list  #: positional arguments of run_events
+    kernel: object  #: compiled entry point for them
+    P: int
+    rtol: float
+    atol: float
+    linear: bool
+    ke0: float  #: initial kinetic energy
+
+    def __getitem__(self, name):
+        return self.args[_A[name]]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _friction_modes(v, eta_s, csl, slide):
+    """Initial friction modes: csl[i] = 1 where a static threshold exists
+    (Coulomb friction), slide[i] the sign of v[i] there, 2 (no friction) elsewhere."""
+    for i in range(v.size):
+        if eta_s[i] > 0.0:
+            csl[i] = 1
+            slide[i] = 1 if v[i] > 0.0 else (-1 if v[i] < 0.0 else 0)
+        else:
+            csl[i] = 0
+            slide[i] = 2
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _linear_step_cap(kc, present, gamma, mass):
+    """n = 2: largest step, LINEAR_STEP / L with L a bound on the eigenvalues of
+    any linear mode: drag rate plus twice the fastest contact frequency (a
+    chain's highest mode is 2 sqrt(k/m)). 0 (no cap) when L = 0."""
+    kmax = 0.0
+    first = True
+    for j in range(present.size):
+        if present[j] == 1:
+            if first or kc[j] > kmax:
+                kmax = kc[j]
+            first = False
+    drag = 0.0
+    imax = 0.0
+    for i in range(mass.size):
+        im = 1.0 / mass[i]
+        g = gamma[i] * im
+        if i == 0 or g > drag:
+            drag = g
+        if i == 0 or im > imax:
+            imax = im
+    L = drag + 2.0 * math.sqrt(kmax * imax)
+    return LINEAR_STEP / L if L > 0 else 0.0
+
+
+def _pack_run(scene, model: Model) -> _Packed:
+    """Every argument of the kernel for a run of ``scene`` (already in the units
+    the kernel runs in): the state, the settings and the work buffers."""
     settings = scene.run
     feat = model.features
     N = model.count
@@ -179,10 +248,11 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
     present, dl, kc, nexp = _pack(model)
     coulomb = int(feat.coulomb)
     viscous = int(feat.viscous)
-    csl = (model.eta_static > 0).astype(np.int8)
     v = model.v0.copy()
     u = np.zeros(N)
-    slide = np.where(csl == 1, np.sign(v), 2).astype(np.int8)
+    csl = np.zeros(N, dtype=np.int8)
+    slide = np.zeros(N, dtype=np.int8)
+    _friction_modes(v, model.eta_static, csl, slide)
     closed = ((dl > 0) & (present == 1)).astype(np.int8)
 
     stops = settings.stop_conditions
@@ -191,12 +261,7 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
     st[K.S_OUTDT] = scene.output.dt or 0.0
     st[K.S_LASTEV] = -math.inf
     if linear:
-        # Bound on the eigenvalues of any linear mode: drag rate plus twice the
-        # fastest contact frequency (a chain's highest mode is 2 sqrt(k/m)).
-        kmax = float(np.max(kc[present == 1])) if np.any(present == 1) else 0.0
-        L = float(np.max(model.gamma * model.inv_mass)) + 2.0 * math.sqrt(
-            kmax * float(np.max(model.inv_mass)))
-        st[K.S_HCAP] = LINEAR_STEP / L if L > 0 else 0.0
+        st[K.S_HCAP] = _linear_step_cap(kc, present, model.gamma, model.mass)
     ist = np.zeros(20, dtype=np.int64)
     ist[K.I_WATCH] = settings.stop_contact + 1 if N > 1 else -10
     ist[K.I_STOPSEP] = int("separation" in stops)
@@ -246,43 +311,62 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
             np.zeros(K.EM.NPAR), np.zeros(2, dtype=np.int64), np.zeros(N, dtype=np.int8),
             np.zeros(N, dtype=np.int64), _overlap_limits(model)]
     kernel = specialised(K.run_events, tuple(args), (0, 1, 2))
+    return _Packed(args=args, kernel=kernel, P=P, rtol=rtol, atol=atol, linear=linear, ke0=ke0)
+
+
+def _drive(packed: _Packed):
+    """Call the kernel until it stops for another reason than a full buffer.
+
+    Returns the kernel's code and the wall time spent in it (seconds).
+    """
+    args = packed.args
+    kernel = packed.kernel
     start = time.perf_counter()
     while True:
         code = kernel(*args)
         if code != K.C_BUFFER:
             break
-        # Grow whichever buffer is short (doubling) and call again: the state
-        # lives in the arrays, so the kernel resumes where it stopped.
-        if fr_t.size - ist[K.I_NFR] < 8:
-            n2 = 2 * fr_t.size
-            fr_t = _grow(fr_t, n2)
-            fr_x = _grow(fr_x, n2)
-            fr_v = _grow(fr_v, n2)
-            fr_f = _grow(fr_f, n2)
-            fr_e = _grow(fr_e, n2)
-            args[38:43] = [fr_t, fr_x, fr_v, fr_f, fr_e]
-        if ev_t.size - ist[K.I_NEV] < 2 * N + 8:
-            n2 = 2 * ev_t.size
-            ev_t = _grow(ev_t, n2)
-            ev_k = _grow(ev_k, n2)
-            ev_i = _grow(ev_i, n2)
-            args[43:46] = [ev_t, ev_k, ev_i]
-    wall = time.perf_counter() - start
+        _grow_buffers(args)
+    return code, time.perf_counter() - start
 
+
+def _grow_buffers(args: list) -> None:
+    """Grow whichever buffer is short (doubling), replacing it in ``args``: the
+    state lives in the arrays, so the kernel called again resumes where it stopped."""
+    ist = args[_A["ist"]]
+    N = args[_A["u"]].size
+    ifr, iev = _A["fr_t"], _A["ev_t"]
+    if args[ifr].size - ist[K.I_NFR] < 8:
+        n2 = 2 * args[ifr].size
+        args[ifr:ifr + 5] = [_grow(a, n2) for a in args[ifr:ifr + 5]]
+    if args[iev].size - ist[K.I_NEV] < 2 * N + 8:
+        n2 = 2 * args[iev].size
+        args[iev:iev + 3] = [_grow(a, n2) for a in args[iev:iev + 3]]
+
+
+def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: float) -> Result:
+    """The Result of a finished kernel run (frames, ledger, event log, status)."""
+    ist, st = packed["ist"], packed["st"]
+    fr_t, fr_x, fr_v, fr_f, fr_e = (packed[k] for k in ("fr_t", "fr_x", "fr_v", "fr_f", "fr_e"))
+    ev_t, ev_k, ev_i = packed["ev_t"], packed["ev_k"], packed["ev_i"]
+    counts = packed["counts"]
+    feat = model.features
     nfr = int(ist[K.I_NFR])
     nev = int(ist[K.I_NEV])
     pe0 = float(fr_e[0, 1])
-    e0 = ke0 + pe0
+    e0 = packed.ke0 + pe0
     t_final = float(st[K.S_T])
-    status, message = _status(code, scene, model, st * _time_fields(tscale), ist,
-                              t_final * tscale, nev)
+    if tscale != 1.0:  # (times 1.0 is exact: skip the arrays for the common case)
+        st = st * _time_fields(tscale)
+    status, message = _status(code, scene, model, st, ist, t_final * tscale, nev)
     energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                           coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
                           initial=e0)
     events = [Event(float(ev_t[q]), EVENT_KINDS[int(ev_k[q])], int(ev_i[q])) for q in range(nev)]
-    info = {"features": feat.describe(), "granules": N, "units": model.units,
-            "event_stepper": {"taylor_order": P, "rtol": rtol, "atol": atol,
-                              "exact_modes": bool(linear), "event_batches": int(ist[K.I_BATCHES])}}
+    info = {"features": feat.describe(), "granules": model.count, "units": model.units,
+            "event_stepper": {"taylor_order": packed.P, "rtol": packed.rtol,
+                              "atol": packed.atol, "exact_modes": bool(packed.linear),
+                              "event_batches": int(ist[K.I_BATCHES])}}
     if model.units == "physical":
         from ..units import scaled_parameters
         info["scaled"] = scaled_parameters(model)
@@ -365,3 +449,197 @@ def _status(code, scene, model, st, ist, t, nev):
                               f"resolve: look for extreme ratios of speeds, overlaps and "
                               f"friction, e.g. speeds near 1e-300); the Verlet stepper or "
                               f"rescaled parameters may run it")
+
+
+# ----------------------------------------------------------------------------
+# Many runs of one scene differing only in friction (two-granule maps)
+# ----------------------------------------------------------------------------
+#: Status of a run from the kernel's return code (C_BUFFER excluded: not an end).
+CODE_STATUS = {K.C_T_END: Status.T_END, K.C_SEPARATED: Status.SEPARATED,
+               K.C_AT_REST: Status.AT_REST, K.C_MAX_EVENTS: Status.MAX_EVENTS,
+               K.C_ZENO: Status.ZENO, K.C_MAX_STEPS: Status.MAX_STEPS,
+               K.C_NONFINITE: Status.NONFINITE, K.C_OVERLAP: Status.OVERLAP}
+
+# The kernel's leading scalar arguments; the rest are arrays, passed to
+# _run_points as one tuple ``a`` (position in it: _A[name] - _NSCALAR).
+_NSCALAR = 6
+(_ST, _IST, _V, _SLIDE, _CSL, _KC, _PRESENT, _MASS, _ETA, _ETAS, _GAMMA, _FRV, _FRE, _EVT,
+ _EVK, _EVI) = (_A[k] - _NSCALAR for k in (
+     "st", "ist", "v", "slide", "csl", "kc", "present", "mass", "eta", "eta_s", "gamma",
+     "fr_v", "fr_e", "ev_t", "ev_k", "ev_i"))
+assert len(_KARGS) == _NSCALAR + 46, "run_events changed: update the call in _run_points"
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _extract(p, code, st, ist, fr_v, fr_e, ev_t, ev_k, ev_i, o_code, o_t, o_v, o_e, o_stop):
+    """Store point p's end state: the kernel's code, final time, final velocities,
+    (kinetic, elastic energy at the end, elastic energy at t = 0), and the time
+    of each granule's first stop event (NaN if it never stops)."""
+    o_code[p] = code
+    o_t[p] = st[K.S_T]
+    nfr = ist[K.I_NFR]
+    for i in range(o_v.shape[1]):
+        o_v[p, i] = fr_v[nfr - 1, i]
+        o_stop[p, i] = math.nan
+    o_e[p, 0] = fr_e[nfr - 1, 0]
+    o_e[p, 1] = fr_e[nfr - 1, 1]
+    o_e[p, 2] = fr_e[0, 1]
+    for q in range(ist[K.I_NEV]):
+        if ev_k[q] == K.EV_STOP:
+            i = ev_i[q]
+            if math.isnan(o_stop[p, i]):
+                o_stop[p, i] = ev_t[q]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _run_points(law, coulomb, viscous, P, rtol, atol, a, fbuf, ftmp, ibuf, itmp, bbuf, btmp,
+                eta, eta_s, gamma, start, o_code, o_t, o_v, o_e, o_stop):
+    """Run the packed scene once per row p >= start of eta, eta_s, gamma (each (M, N)).
+
+    ``a`` holds the kernel's array arguments, all views into the three flat
+    buffers (float64, int64, int8), whose initial contents are ``*tmp``: each
+    run starts from exactly the state the packing produced, with the point's
+    friction and the friction-dependent entries (csl, slide, the n = 2 step
+    cap) set by the same functions the packing uses. Results go to the o_
+    arrays (:func:`_extract`). Returns M, or the first point whose run filled a
+    buffer (C_BUFFER): its state is left in the arrays for the caller to grow
+    the buffers and resume, and the loop continues from the next point.
+    """
+    law = literally(law)
+    coulomb = literally(coulomb)
+    viscous = literally(viscous)
+    for p in range(start, o_code.size):
+        fbuf[:] = ftmp
+        ibuf[:] = itmp
+        bbuf[:] = btmp
+        a[_ETA][:] = eta[p]
+        a[_ETAS][:] = eta_s[p]
+        a[_GAMMA][:] = gamma[p]
+        _friction_modes(a[_V], a[_ETAS], a[_CSL], a[_SLIDE])
+        if law == LAW_LINEAR:
+            a[_ST][K.S_HCAP] = _linear_step_cap(a[_KC], a[_PRESENT], a[_GAMMA], a[_MASS])
+        code = K.run_events(
+            law, coulomb, viscous, P, rtol, atol, a[0], a[1], a[2], a[3], a[4], a[5], a[6],
+            a[7], a[8], a[9], a[10], a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18],
+            a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27], a[28], a[29],
+            a[30], a[31], a[32], a[33], a[34], a[35], a[36], a[37], a[38], a[39], a[40],
+            a[41], a[42], a[43], a[44], a[45])
+        if code == K.C_BUFFER:
+            return p
+        _extract(p, code, a[_ST], a[_IST], a[_FRV], a[_FRE], a[_EVT], a[_EVK], a[_EVI],
+                 o_code, o_t, o_v, o_e, o_stop)
+    return o_code.size
+
+
+@dataclasses.dataclass
+class BatchOutput:
+    """Per-point end state of :meth:`EventBatch.run` (M points, N granules)."""
+
+    code: np.ndarray  #: (M,) kernel return code (a key of CODE_STATUS)
+    t_final: np.ndarray  #: (M,)
+    v_final: np.ndarray  #: (M, N)
+    kinetic: np.ndarray  #: (M,) kinetic energy at the end
+    potential: np.ndarray  #: (M,) elastic energy at the end
+    initial: np.ndarray  #: (M,) kinetic + elastic energy at t = 0 (EnergyLedger.initial)
+    t_stop: np.ndarray  #: (M, N) time of each granule's first stop event, NaN if none
+    wall_time: float  #: seconds in the kernel (compiled loop and resumed runs)
+    last_args: list  #: the kernel's arguments holding the last point's run
+
+
+class EventBatch:
+    """One scene run many times with different friction, the event stepper's packing reused.
+
+    The scene is validated and packed once (:func:`_pack_run`, the same packing
+    :func:`simulate_events` uses); the kernel's arrays are moved into three flat
+    buffers, so each run restores the packed state with three copies, sets the
+    point's friction, and calls the kernel from a compiled loop
+    (:func:`_run_points`): no per-run Python, no Result objects. A run that
+    fills a buffer is resumed with grown buffers exactly as
+    :func:`_simulate_events` does. Every run gives bitwise the numbers
+    :func:`simulate_events` gives for the scene with that friction.
+
+    Only for scenes that are already in scaled units (the kernel's units, see
+    :func:`_scales`), and only for points whose friction has the scene's
+    features (Coulomb friction present or not, viscous friction present or
+    not): :func:`granular_chain.model.friction_features` tells.
+    """
+
+    def __init__(self, scene, model: Model):
+        if model.units != "scaled" or _scales(model) is not None:
+            raise ValueError("EventBatch needs a scene in the kernel's scaled units "
+                             "(mass 1, force coefficient 1, largest speed 1)")
+        self.scene, self.model = scene, model
+        self.packed = pk = _pack_run(scene, model)
+        args = pk.args
+        if not all(isinstance(x, np.ndarray) for x in args[_NSCALAR:]):
+            raise TypeError("run_events changed: its arguments after atol must be arrays")
+        flat = []
+        for dtype in (np.float64, np.int64, np.int8):
+            idx = [i for i in range(_NSCALAR, len(args)) if args[i].dtype == dtype]
+            buf = np.empty(sum(args[i].size for i in idx), dtype=dtype)
+            off = 0
+            for i in idx:
+                view = buf[off:off + args[i].size].reshape(args[i].shape)
+                view[...] = args[i]
+                args[i] = view
+                off += view.size
+            flat += [buf, buf.copy()]
+        if sum(b.size for b in flat[::2]) != sum(x.size for x in args[_NSCALAR:]):
+            raise TypeError("run_events changed: an array argument of another dtype")
+        self._flat = tuple(flat)
+        self._head = tuple(args[:_NSCALAR])
+        self._arrays = tuple(args[_NSCALAR:])
+        N = model.count
+        probe = self._call_args(*(np.zeros((1, N)),) * 3)
+        self._entry = specialised(_run_points, probe, (0, 1, 2))
+
+    def _call_args(self, eta, eta_s, gamma):
+        M, N = eta.shape
+        return [*self._head, self._arrays, *self._flat, eta, eta_s, gamma, 0,
+                np.zeros(M, dtype=np.int64), np.zeros(M), np.zeros((M, N)), np.zeros((M, 3)),
+                np.zeros((M, N))]
+
+    def run(self, eta, eta_static, gamma) -> BatchOutput:
+        """Run every point: eta, eta_static, gamma of shape (M, N), float64.
+
+        The returned ``last_args`` hold the last point's run, from which
+        :meth:`result` makes its full Result.
+        """
+        shape = (len(eta), self.model.count)
+        arrs = [np.ascontiguousarray(x, dtype=np.float64) for x in (eta, eta_static, gamma)]
+        if not arrs[0].shape == arrs[1].shape == arrs[2].shape == shape:
+            raise ValueError(f"eta, eta_static and gamma must all have shape {shape}")
+        call = self._call_args(*arrs)
+        M = shape[0]
+        i_start = _NSCALAR + 10
+        code, t, v, e, stop = call[-5:]
+        last = self.packed.args
+        wall = 0.0
+        while True:
+            t0 = time.perf_counter()
+            p = self._entry(*call)
+            wall += time.perf_counter() - t0
+            if p >= M:
+                break
+            # Point p filled a buffer: grow and resume it the ordinary way
+            # (_drive), on a copy of the argument list (the grown buffers
+            # replace the flat buffers' views there only).
+            grown = list(self.packed.args)
+            _grow_buffers(grown)
+            pk = dataclasses.replace(self.packed, args=grown)
+            c, w = _drive(pk)
+            wall += w
+            _extract(p, c, pk["st"], pk["ist"], pk["fr_v"], pk["fr_e"], pk["ev_t"], pk["ev_k"],
+                     pk["ev_i"], code, t, v, e, stop)
+            # the last point's run: in the grown buffers if it was this one, else
+            # (later points ran in the loop) in the flat buffers' views
+            last = grown if p == M - 1 else self.packed.args
+            call[i_start] = p + 1
+        return BatchOutput(code=code, t_final=t, v_final=v, kinetic=e[:, 0], potential=e[:, 1],
+                           initial=self.packed.ke0 + e[:, 2], t_stop=stop, wall_time=wall,
+                           last_args=last)
+
+    def result(self, out: BatchOutput) -> Result:
+        """The full Result of the last point of ``out`` (as simulate_events returns it)."""
+        pk = dataclasses.replace(self.packed, args=out.last_args)
+        return _build_result(pk, int(out.code[-1]), out.wall_time, self.scene, self.model, 1.0)
