@@ -180,3 +180,33 @@ def test_collide_bad_friction_still_scene_error():
         collide(2.0, eta=(-0.1, 0.0), stepper="event")
     with pytest.raises(ValueError, match="granules.friction.static"):
         collide(2.0, eta=(0.3, 0.0), eta_static=(0.1, 0.0), stepper="event")
+
+
+def test_event_batch_resumes_full_buffers():
+    """A run that fills the event buffer is resumed with grown buffers inside
+    EventBatch.run: same end state and same full Result as simulate()."""
+    from granular_chain.model import build_model
+    from granular_chain.steppers.events import EventBatch
+
+    def scene(g):
+        return scene_from_dict({
+            "granules": {"count": 3, "radius": 2.0, "gap": 0.5, "velocity": [1.0, 0.0, -0.5],
+                         "friction": {"viscous": [g, g, g]}},
+            "walls": {"left": {"gap": 0.5}, "right": {"gap": 0.5}},
+            "run": {"stepper": "event", "t_end": 120.0},
+            "output": {"trajectory": False}})
+
+    gs = [0.01, 0.02, 0.005]
+    batch = EventBatch(scene(gs[0]), build_model(scene(gs[0])))
+    gam = np.array([[g] * 3 for g in gs])
+    out = batch.run(np.zeros((3, 3)), np.zeros((3, 3)), gam)
+    for p, g in enumerate(gs):
+        r = simulate(scene(g), progress=False)
+        assert len(r.events) > 72  # more than the packed event buffer holds
+        assert out.code[p] == 0 and r.status == Status.T_END
+        assert out.v_final[p].tobytes() == r.v_final.tobytes()
+        assert _same(out.t_final[p], r.t_final) and _same(out.initial[p], r.energy.initial)
+        assert _same(out.kinetic[p], r.energy.kinetic[-1])
+    full = batch.result(out)
+    assert full.v.tobytes() == r.v.tobytes() and full.events == r.events
+    assert full.message == r.message and full.info == r.info
