@@ -175,7 +175,8 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
 
 
 # Argument positions of the kernel (run_events), by name.
-_KARGS = K.run_events.py_func.__code__.co_varnames[:K.run_events.py_func.__code__.co_argcount]
+_RUN_PY = getattr(K.run_events, "py_func", K.run_events)  # NUMBA_DISABLE_JIT=1 (debugging)
+_KARGS = _RUN_PY.__code__.co_varnames[:_RUN_PY.__code__.co_argcount]
 _A = {name: i for i, name in enumerate(_KARGS)}
 
 

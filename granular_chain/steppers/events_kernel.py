@@ -88,6 +88,7 @@ S_T, S_TEND, S_OUTDT, S_WC, S_WV, S_LASTEV, S_JUMPFROM, S_HCAP, S_TLO = range(9)
 
 ZENO_BATCHES = 200  # consecutive event batches in a vanishing time window = Zeno
 SAMPLES = 16
+WINDOW = 3  # samples per search window of the closed-form two-granule path
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy")
@@ -520,7 +521,7 @@ def _try_jump(law, coulomb, st, ist, u, v, dl, closed, present, csl, kc, mass, g
     T = (st[S_TEND] - st[S_T]) - st[S_TLO]
     if disc > 0.0:
         sq = math.sqrt(disc)
-        lp = 0.5 * (-c + sq)
+        lp = -2.0 * K / (c + sq)  # 0.5 (-c + sq) without cancellation (c^2 >> K)
         lm = 0.5 * (-c - sq)
         A = (w0 - lm * d0) / (lp - lm)
         B = d0 - A
@@ -623,45 +624,70 @@ def _modal_step(law, coulomb, viscous, pm, st, ist, x0, u, v, dl, closed, presen
     pm[EM.P_LIM] = lim
     deep = EM.overlap_bound(pm) >= lim
     sampled = pm[EM.P_B] != 0.0 or sl0 or sl1 or slipc or deep
-    nsamp = 0
+    dts = h
+    dts_max = h
     if sampled:
         dts = EM.sample_step(pm)
-        h = min(h, 256.0 * dts)
-        nsamp = max(1, int(math.ceil(h / dts)))
-    bh = math.inf
-    bl = 0.0
-    if pm[EM.P_B] == 0.0:
-        rh, rl = EM.open_root_analytic(pm, h)
-    else:
-        rh, rl = EM.first_root(pm, 0, h, nsamp)
-    ctype[0] = EV_OPEN
-    cidx[0] = 1
-    croot[0] = rh + rl
-    ncand = 1
-    if rh < bh or (rh == bh and rl < bl):
-        bh, bl = rh, rl
-    for q in range(3):
-        if q == 0 and not sl0:
-            continue
-        if q == 1 and not sl1:
-            continue
-        if q == 2 and not slipc:
-            continue
-        rh, rl = EM.first_root(pm, q + 1, h, nsamp)
-        ctype[ncand] = EV_SLIP if q == 2 else EV_STOP
-        cidx[ncand] = q if q < 2 else (1 if case == 1.0 else 0)
-        croot[ncand] = rh + rl
-        ncand += 1
+        # Overdamped (D <= 0): after the fast transient the mode creeps at the
+        # slow rate ~K/c, so the windows double their sampling interval up to
+        # a quarter of the slow time scale (a sum of real exponentials has at
+        # most two extrema, so coarse samples miss nothing the transient's fine
+        # ones do not catch). With the fast scale alone, gamma = 1e6 needed
+        # ~1e10 steps to reach t_end: an apparent hang.
+        dts_max = EM.slow_sample_step(pm)
+        h = min(h, 256.0 * dts_max)
+    # Search the candidates window by window (WINDOW samples each) and stop at
+    # the first window holding a root: most modes end within a period, so
+    # sampling all of h (up to 256 samples per event function) cost 4-5x the rest
+    # of a collision. Roots beyond the window are not needed: the step ends
+    # at the earliest root.
+    analytic = pm[EM.P_B] == 0.0
+    ah = math.inf
+    al = 0.0
+    if analytic:
+        ah, al = EM.open_root_analytic(pm, h)
+    lo = 0.0
+    while True:
+        hi = min(h, lo + WINDOW * dts) if sampled else h
+        nsamp = max(1, int(math.ceil((hi - lo) / dts))) if sampled else 0
+        bh = math.inf
+        bl = 0.0
+        if analytic:
+            rh, rl = ah, al
+        else:
+            rh, rl = EM.first_root(pm, 0, lo, hi, nsamp)
+        ctype[0] = EV_OPEN
+        cidx[0] = 1
+        croot[0] = rh + rl
+        ncand = 1
         if rh < bh or (rh == bh and rl < bl):
             bh, bl = rh, rl
-    if deep:
-        rh, rl = EM.first_root(pm, 4, h, nsamp)
-        ctype[ncand] = CAND_OVERLAP
-        cidx[ncand] = 1
-        croot[ncand] = rh + rl
-        ncand += 1
-        if rh < bh or (rh == bh and rl < bl):
-            bh, bl = rh, rl
+        for q in range(3):
+            if q == 0 and not sl0:
+                continue
+            if q == 1 and not sl1:
+                continue
+            if q == 2 and not slipc:
+                continue
+            rh, rl = EM.first_root(pm, q + 1, lo, hi, nsamp)
+            ctype[ncand] = EV_SLIP if q == 2 else EV_STOP
+            cidx[ncand] = q if q < 2 else (1 if case == 1.0 else 0)
+            croot[ncand] = rh + rl
+            ncand += 1
+            if rh < bh or (rh == bh and rl < bl):
+                bh, bl = rh, rl
+        if deep:
+            rh, rl = EM.first_root(pm, 4, lo, hi, nsamp)
+            ctype[ncand] = CAND_OVERLAP
+            cidx[ncand] = 1
+            croot[ncand] = rh + rl
+            ncand += 1
+            if rh < bh or (rh == bh and rl < bl):
+                bh, bl = rh, rl
+        if bh + bl <= hi or hi >= h:
+            break
+        lo = hi
+        dts = min(2.0 * dts, dts_max)
     event = bh + bl <= h
     if event:
         th, tl = bh, bl
