@@ -207,6 +207,8 @@ def cmd_run(args) -> int:
         raise
     if not args.quiet:
         print(f"{result.status.name.lower()}: {result.message}")
+        for w in result.info.get("warnings", []):
+            print(f"warning: {w}")
         print(f"t_final = {result.t_final:.12g}, steps = {result.steps}, "
               f"energy balance error = {result.energy.balance_error:.3g} (relative)")
         print(f"wrote {out}/")

@@ -214,3 +214,34 @@ def test_event_stepper_overlap_in_a_chain_and_at_a_wall():
     stiff = scene(granules={"count": 5, "velocity": {0: 1.0}}, contacts={"exponent": 2.5},
                   run={"t_end": 20.0, "stepper": "event"})
     assert gc.simulate(stiff).status == gc.Status.T_END  # no false alarm
+
+
+def _struck_chain(v, stepper, every=1):
+    run = {"stepper": stepper, "t_end": 5.0}
+    if stepper == "verlet":
+        run["dt"] = 0.01
+    return gc.scene_from_dict({
+        "name": "struck", "granules": {"count": 8, "mass": 1.0, "radius": 0.5, "gap": 0.0,
+                                       "velocity": {0: v}},
+        "contacts": {"exponent": 2.5, "stiffness": 1.0}, "run": run,
+        "output": {"every": every, "trajectory": False}})
+
+
+@pytest.mark.parametrize("stepper", ["verlet", "event"])
+def test_next_neighbour_overlap_is_warned(stepper):
+    """The benchmark chain struck at v = 1 (k = 1, radius 0.5) compresses contacts 0 and 1
+    by more than granule 1's diameter: spheres 0 and 2 overlap (LAMMPS counts that
+    contact, benchmarks/results/lammps.md: 0 and 2 overlap from step 118 at dt = 0.01).
+    The run succeeds with a warning naming the pair and the first frame; at v = 0.01 no
+    warning."""
+    r = gc.simulate(_struck_chain(1.0, stepper), progress=False)
+    assert r.success
+    (w,) = r.info["warnings"]
+    assert w.startswith("granules 0 and 2 overlap at t = ")
+    # the first frame where x2 - x0 < r0 + r2, recomputed here
+    q = int(np.flatnonzero(r.x[:, 2] - r.x[:, 0] < 1.0)[0])
+    assert f"t = {r.t[q]:.6g} " in w
+    if stepper == "verlet":
+        assert abs(r.t[q] - 1.18) < 0.015  # step 118 in LAMMPS
+    r = gc.simulate(_struck_chain(0.01, stepper), progress=False)
+    assert "warnings" not in r.info
