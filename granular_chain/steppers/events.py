@@ -259,7 +259,7 @@ def _pack_run(scene, model: Model) -> _Packed:
     stops = settings.stop_conditions
     st = np.zeros(9)
     st[K.S_TEND] = settings.t_end
-    st[K.S_OUTDT] = scene.output.dt or 0.0
+    st[K.S_OUTDT] = _frame_interval(scene, N)
     st[K.S_LASTEV] = -math.inf
     if linear:
         st[K.S_HCAP] = _linear_step_cap(kc, present, model.gamma, model.mass)
@@ -269,7 +269,7 @@ def _pack_run(scene, model: Model) -> _Packed:
     ist[K.I_STOPREST] = int("rest" in stops)
     ist[K.I_MAXEV] = settings.max_events
     ist[K.I_MAXSTEPS] = settings.max_steps
-    ist[K.I_FRAMEEV] = int(scene.output.dt is None or N <= 64)
+    ist[K.I_FRAMEEV] = int(N <= FRAMES_AT_EVENTS_MAX_N)
     ist[K.I_EVERY] = scene.output.every or 0
 
     R = max(P + 1, N + 1)
@@ -290,8 +290,8 @@ def _pack_run(scene, model: Model) -> _Packed:
     cidx = np.zeros(5 * N + 16, dtype=np.int64)
     croot = np.zeros(5 * N + 16)
     fcap = 64
-    if scene.output.dt is not None:
-        fcap = min(int(settings.t_end / scene.output.dt) + 16, 1 << 20)
+    if st[K.S_OUTDT] > 0.0:
+        fcap = min(int(settings.t_end / st[K.S_OUTDT]) + 16, 1 << 20)
     fr_t = np.zeros(fcap)
     fr_x = np.zeros((fcap, N))
     fr_v = np.zeros((fcap, N))
@@ -313,6 +313,27 @@ def _pack_run(scene, model: Model) -> _Packed:
             np.zeros(N, dtype=np.int64), _overlap_limits(model)]
     kernel = specialised(K.run_events, tuple(args), (0, 1, 2))
     return _Packed(args=args, kernel=kernel, P=P, rtol=rtol, atol=atol, linear=linear, ke0=ke0)
+
+
+#: Chains up to this many granules get a frame at every event batch; longer ones
+#: at the output.dt cadence only (a frame holds 3 N values; a long chain has
+#: thousands of event batches).
+FRAMES_AT_EVENTS_MAX_N = 64
+_DEFAULT_FRAMES = 1000
+_DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f), as the Verlet default
+
+
+def _frame_interval(scene, N: int) -> float:
+    """Output cadence in time (0: none). ``output.dt`` if given; for a chain longer than
+    FRAMES_AT_EVENTS_MAX_N without it (and without ``output.every``) about 1000 frames,
+    fewer for long chains (at most 1e7 values per recorded array), as Verlet's default."""
+    out = scene.output
+    if out.dt is not None:
+        return float(out.dt)
+    if N <= FRAMES_AT_EVENTS_MAX_N or out.every is not None:
+        return 0.0
+    frames = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // N))
+    return float(scene.run.t_end) / frames
 
 
 def _drive(packed: _Packed):
