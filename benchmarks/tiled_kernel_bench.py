@@ -33,7 +33,8 @@ from granular_chain._compile import specialised  # noqa: E402
 from granular_chain.model import build_model  # noqa: E402
 from granular_chain.steppers import verlet  # noqa: E402
 
-CASES = [("frictionless", "struck"), ("coulomb+viscous", "struck"), ("coulomb+viscous", "random")]
+CASES = [("frictionless", "struck"), ("viscous", "struck"), ("coulomb+viscous", "struck"),
+         ("coulomb+viscous", "random")]
 
 
 def load_old(root):
@@ -46,6 +47,8 @@ def load_old(root):
 
 
 def build_args(N, features, initial, seed=1):
+    """The kernel's arguments by name, built as simulate() builds them (the old
+    kernel's unused ``c`` and ``du`` included, so either signature can be served)."""
     scene = throughput.chain_scene(N, 10, features)
     model = build_model(scene)
     if initial == "random":
@@ -59,19 +62,35 @@ def build_args(N, features, initial, seed=1):
     sim._net_forces(model, u, c, f)
     active = (c[: max(N - 1, 0)] > 0).astype(np.uint8)
     E, P1, P2 = sim._drift_coefficients(model, dt)
-    args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
-            int(feat.right_wall), 0, u, v, f, c, active, model.d0, model.k,
-            model.n, model.walls, model.mass, model.inv_mass, model.eta,
-            model.eta_static, E, P1, P2, np.zeros(N), dt, 0, 0, np.zeros(2), np.zeros(4, dtype=np.int64)]
-    return args
+    olim, fcap = sim._overlap_caps(model)
+    return dict(law=feat.law, coulomb=int(feat.coulomb), viscous=int(feat.viscous),
+                left_wall=int(feat.left_wall), right_wall=int(feat.right_wall), stop_mode=0,
+                u=u, v=v, f=f, c=c, active=active, d0=model.d0, k=model.k, n=model.n,
+                walls=model.walls, m=model.mass, inv_m=model.inv_mass, eta=model.eta,
+                eta_s=model.eta_static, E=E, P1=P1, P2=P2, du=np.zeros(N), dt=dt, n_steps=0,
+                stop_contact=0, ledger=np.zeros(2), counts=np.zeros(4, dtype=np.int64),
+                olim=olim, fcap=fcap)
 
 
-def timed(kernel, args, saved, steps):
+STATE = ("u", "v", "f", "active", "ledger", "counts")
+
+
+def bind(dispatcher, named):
+    """(compiled entry point, its argument list, index of n_steps) for a kernel of
+    either signature (arguments looked up by name)."""
+    py = getattr(dispatcher, "py_func", dispatcher)
+    names = py.__code__.co_varnames[:py.__code__.co_argcount]
+    args = [named[a] for a in names]
+    return specialised(dispatcher, tuple(args), (0, 1, 2, 3, 4, 5)), args, names.index("n_steps")
+
+
+def timed(kernel, named, saved, steps):
+    entry, args, at = kernel
     for name, x in saved.items():
-        args[name][:] = x
-    args[24] = steps
+        named[name][:] = x
+    args[at] = steps
     t = time.perf_counter()
-    kernel(*args)
+    entry(*args)
     return time.perf_counter() - t
 
 
@@ -91,28 +110,28 @@ def main():
             steps = max(10, int(a.grain_steps // N))
             if initial == "random":
                 steps = min(steps, 1000)
-            args = build_args(N, features, initial)
-            saved = {i: args[i].copy() for i in (6, 7, 8, 10, 26, 27)}
+            named = build_args(N, features, initial)
+            saved = {name: named[name].copy() for name in STATE}
             kernels = {}
             if a.blocks:
                 for B in a.blocks:
                     verlet.BLOCK = B
                     # a fresh dispatcher: recompiled with this BLOCK, no disk cache
                     fresh = numba.njit(fastmath={"reassoc", "contract", "nsz"})(verlet.verlet_chunk.py_func)
-                    kernels[f"B={B}"] = specialised(fresh, tuple(args), (0, 1, 2, 3, 4, 5))
-                    timed(kernels[f"B={B}"], args, saved, 1)
+                    kernels[f"B={B}"] = bind(fresh, named)
+                    timed(kernels[f"B={B}"], named, saved, 1)
                 verlet.BLOCK = a.blocks[0]
             else:
                 old = load_old(a.old)
-                kernels["old"] = specialised(old.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
-                kernels["new"] = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
+                kernels["old"] = bind(old.verlet_chunk, named)
+                kernels["new"] = bind(verlet.verlet_chunk, named)
                 for k in kernels.values():
-                    timed(k, args, saved, 1)
+                    timed(k, named, saved, 1)
             best = {k: float("inf") for k in kernels}
             loads = [os.getloadavg()[0]]
             for _ in range(a.repeat):
                 for name, k in kernels.items():
-                    best[name] = min(best[name], timed(k, args, saved, steps))
+                    best[name] = min(best[name], timed(k, named, saved, steps))
             loads.append(os.getloadavg()[0])
             row = {"case": f"{features} {initial}", "grains": N, "steps": steps,
                    "load_min": min(loads), "load_max": max(loads)}

@@ -158,7 +158,6 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     if active.size == 0:
         active = np.zeros(1, dtype=np.uint8)
     E, P1, P2 = _drift_coefficients(model, dt)
-    du = np.zeros(N)
     ledger = np.zeros(2)
     counts = np.zeros(4, dtype=np.int64)
 
@@ -175,9 +174,9 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     t_now = 0.0
     start = time.perf_counter()
     args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
-            int(feat.right_wall), stop_mode, u, v, f, c, active, model.d0, model.k,
+            int(feat.right_wall), stop_mode, u, v, f, active, model.d0, model.k,
             model.n, model.walls, model.mass, model.inv_mass, model.eta,
-            model.eta_static, E, P1, P2, du, dt, 0, stop_contact, ledger, counts,
+            model.eta_static, E, P1, P2, dt, 0, stop_contact, ledger, counts,
             *_overlap_caps(model)]
     kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
     n_steps_at = _KERNEL_ARGS.index("n_steps")
