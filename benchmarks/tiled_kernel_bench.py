@@ -65,6 +65,7 @@ def build_args(N, features, initial, seed=1):
     olim, fcap = sim._overlap_caps(model)
     return dict(law=feat.law, coulomb=int(feat.coulomb), viscous=int(feat.viscous),
                 left_wall=int(feat.left_wall), right_wall=int(feat.right_wall), stop_mode=0,
+                uniform=sim._uniform_code(model, feat, E, P1, P2),
                 u=u, v=v, f=f, c=c, active=active, d0=model.d0, k=model.k, n=model.n,
                 walls=model.walls, m=model.mass, inv_m=model.inv_mass, eta=model.eta,
                 eta_s=model.eta_static, E=E, P1=P1, P2=P2, du=np.zeros(N), dt=dt, n_steps=0,
@@ -73,6 +74,7 @@ def build_args(N, features, initial, seed=1):
 
 
 STATE = ("u", "v", "f", "active", "ledger", "counts")
+FEATURES = ("law", "coulomb", "viscous", "left_wall", "right_wall", "stop_mode", "uniform")
 
 
 def bind(dispatcher, named):
@@ -81,7 +83,8 @@ def bind(dispatcher, named):
     py = getattr(dispatcher, "py_func", dispatcher)
     names = py.__code__.co_varnames[:py.__code__.co_argcount]
     args = [named[a] for a in names]
-    return specialised(dispatcher, tuple(args), (0, 1, 2, 3, 4, 5)), args, names.index("n_steps")
+    literal = tuple(i for i, a in enumerate(names) if a in FEATURES)
+    return specialised(dispatcher, tuple(args), literal), args, names.index("n_steps")
 
 
 def timed(kernel, named, saved, steps):
