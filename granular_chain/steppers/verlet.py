@@ -251,6 +251,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             # u, v travel to the next iteration in registers (storing and
             # reloading them measured 3x slower), and the last granule is peeled
             # off (a test on i inside the loop cost as much).
+            n_change = 0
+            n_net = 0
             uo = u[0]
             ui, vi, dui, w = sweep_first_half(viscous, uo, v[0], f[0], m[0], inv_m[0], E[0], P1[0],
                                               P2[0], dt, inv_dt, h)
@@ -273,10 +275,12 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                 # Contact events from the overlap's sign before and after the step:
                 # both displacements are at hand, so no state array is streamed
                 # (the events array cost 10-25 %, measured on hand kernels).
+                # Counted as changes and net change (2 integer operations a contact
+                # instead of 4; 2-3 % in cache, measured on hand kernels).
                 was = closed(d0i, uo, uon)
                 now = closed(d0i, ui, un)
-                n_close += now & (1 - was)
-                n_open += was & (1 - now)
+                n_change += now ^ was
+                n_net += now - was
                 F = left - ci
                 v1, w = sweep_second_half(viscous, vi, F, dui, param(uniform, m, m0, i),
                                           param(uniform, inv_m, im0, i), param(uniform, P2, P20, i),
@@ -303,6 +307,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             f[ulast] = F
             if stop_mode & STOP_ON_REST:
                 n_moving += 1 if v1 != 0.0 else 0
+            n_close = (n_change + n_net) >> 1
+            n_open = (n_change - n_net) >> 1
         else:
             for a in range(0, N, BLOCK):
                 b = min(a + BLOCK, N)
