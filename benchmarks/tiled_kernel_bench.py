@@ -46,13 +46,20 @@ def load_old(root):
     return mod
 
 
-def build_args(N, features, initial, seed=1):
+def build_args(N, features, initial, seed=1, per_granule=False):
     """The kernel's arguments by name, built as simulate() builds them (the old
     kernel's unused ``c`` and ``du`` included, so either signature can be served)."""
     scene = throughput.chain_scene(N, 10, features)
     model = build_model(scene)
     if initial == "random":
         model.v0[:] = np.random.default_rng(seed).uniform(-0.1, 0.1, model.count)
+    if per_granule:
+        # masses and stiffnesses varied by +-0.1 %: the same physics, but the
+        # parameters are no longer uniform (the kernel streams them)
+        rng = np.random.default_rng(seed + 1)
+        model.mass[:] *= 1.0 + 1e-3 * rng.uniform(-1.0, 1.0, model.count)
+        model.inv_mass[:] = 1.0 / model.mass
+        model.k[:] *= 1.0 + 1e-3 * rng.uniform(-1.0, 1.0, model.k.size)
     feat = model.features
     dt = scene.run.dt
     u = np.zeros(N)
@@ -106,6 +113,8 @@ def main():
     p.add_argument("--repeat", type=int, default=7)
     p.add_argument("--cases", nargs="*", default=None)
     p.add_argument("--json", default=None)
+    p.add_argument("--per-granule", action="store_true",
+                   help="vary masses and stiffnesses by +-0.1 %% (non-uniform parameters)")
     a = p.parse_args()
     cases = [c for c in CASES if a.cases is None or f"{c[0]} {c[1]}" in a.cases]
     for features, initial in cases:
@@ -113,7 +122,7 @@ def main():
             steps = max(10, int(a.grain_steps // N))
             if initial == "random":
                 steps = min(steps, 1000)
-            named = build_args(N, features, initial)
+            named = build_args(N, features, initial, per_granule=a.per_granule)
             saved = {name: named[name].copy() for name in STATE}
             kernels = {}
             if a.blocks:
@@ -136,7 +145,8 @@ def main():
                 for name, k in kernels.items():
                     best[name] = min(best[name], timed(k, named, saved, steps))
             loads.append(os.getloadavg()[0])
-            row = {"case": f"{features} {initial}", "grains": N, "steps": steps,
+            row = {"case": f"{features} {initial}" + (" per-granule" if a.per_granule else ""),
+                   "grains": N, "steps": steps, "uniform": named["uniform"],
                    "load_min": min(loads), "load_max": max(loads)}
             row.update({name: N * steps / t / 1e6 for name, t in best.items()})
             print(json.dumps(row), flush=True)
