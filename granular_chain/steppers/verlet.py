@@ -31,10 +31,11 @@ Two shapes of the same step, chosen at compile time by the ``coulomb`` code:
 per step: granule i+1 gets its first half kick and drift, contact i its force,
 granule i its second half kick, so u, v and f stream from memory once per step.
 Granule i+1's new u, v travel to the next iteration in registers; LLVM
-vectorises the sweep as a first-order recurrence (vsqrtpd in its code). When every granule has the
-same parameters and every contact the same (d0, k, n) (feature code
-``uniform``), the parameters are read once as scalars and the sweep streams only
-u, v, f: 48 B per grain-step, against 72 B with per-granule parameters.
+vectorises the sweep as a first-order recurrence (vsqrtpd in its code). When
+every granule has the same parameters and every contact the same (d0, k, n)
+(feature code ``uniform``), the parameters are read once as scalars and the
+sweep streams only u, v, f: 48 B per grain-step, against 72 B with per-granule
+parameters.
 
 *Scenes with Coulomb friction* take **three cache-blocked passes**: (1) first
 kick + drift, (2) contact forces and contact events, (3) net force + second
