@@ -42,8 +42,9 @@ kick + drift, (2) contact forces and contact events, (3) net force + second
 kick. Their kick loops vectorise (8 granules per AVX-512 instruction) where the
 sweep's branch-free Coulomb kick carried from one iteration to the next does not
 (the sweep measured 4x slower with Coulomb friction). The chain is walked in
-blocks of ``BLOCK`` granules, and for each block [a, b) the three passes run
-back to back, software-pipelined by one granule:
+blocks of ``BLOCK`` granules (``BLOCK_LONG`` on long chains), and for each
+block [a, b) the three passes run back to back, software-pipelined by one
+granule:
 
 * pass 1 on granules a .. b-1;
 * pass 2 on the contacts whose two granules are now drifted, max(a-1, 0) .. b-2
@@ -74,8 +75,13 @@ from ..forces import wall_forces
 from ..laws.contact import contact_force
 from ..laws.friction import coulomb_kick, free_kick, viscous_drift
 
-# Granules per block of the tiled step (see the module docstring).
+# Granules per block of the tiled step (see the module docstring). Chains that
+# stream from memory take smaller blocks: BLOCK_LONG was 1.14-1.18x faster than
+# 1024 at N = 1e6, equal at 1e7, but 0.94-0.97x at N <= 1e5 (benchmarks/results/
+# verlet_sweep_blocks.jsonl), so it is used from LONG_CHAIN granules on.
 BLOCK = 1024
+BLOCK_LONG = 256
+LONG_CHAIN = 300_000
 
 ONE = np.uint64(1)
 TWO = np.uint64(2)
@@ -229,7 +235,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     # per chunk, stays in L1): cb[j] = force of contact a - 2 + j for the block
     # [a, b) (cb[1] = left wall force on the first block, cb[b - a + 1] = right
     # wall force on the last).
-    cb = np.zeros((BLOCK if coulomb else 1) + 2)
+    B = BLOCK_LONG if N >= LONG_CHAIN else BLOCK
+    cb = np.zeros((B if coulomb else 1) + 2)
     ulast = np.uint64(max(N - 1, 0))
     # The chain's one value of each parameter (used when uniform; d0, k, n are
     # empty for a single granule).
@@ -311,8 +318,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             n_close = (n_change + n_net) >> 1
             n_open = (n_change - n_net) >> 1
         else:
-            for a in range(0, N, BLOCK):
-                b = min(a + BLOCK, N)
+            for a in range(0, N, B):
+                b = min(a + B, N)
                 # Unsigned loop indices: a signed index from a non-zero start gets
                 # numba's negative-index wraparound test, which stops vectorisation
                 # (3x slower). Block-local offsets are written (i + j) - ua >= 0.
