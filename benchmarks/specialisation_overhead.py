@@ -2,41 +2,44 @@
 
 The frictionless struck Hertz chain of benchmarks/throughput.py (m = 1, k = 1,
 n = 5/2, touching, dt = 0.01, granule 0 at v = 1) run by the engine's compiled
-Verlet kernel (granular_chain.steppers.verlet.verlet_chunk, through simulate:
-per-granule parameter arrays, event counting, energy ledger, feature codes as
-literals) against kernels written by hand for this scene only:
+Verlet kernel (granular_chain.steppers.verlet.verlet_chunk: for this scene the
+single sweep with the ``uniform`` feature code, contact events, the every-step
+overlap guard) against kernels written by hand for this scene only. Every hand
+kernel knows what the engine's ``uniform`` specialisation knows (one mass, one
+stiffness, one d0) and more: m = k = 1 and d0 = 0 are folded in as constants.
 
-hand_3pass   the engine's algorithm (kick+drift / contact forces / net force+kick),
-             with the scene's constants (m = k = 1, touching) folded in, no
-             event counts, no ledger. Overhead = engine time / this time - 1 (goal <= 3%).
-hand_fused   one pass per step (prototype of a kernel change): granule i+1 is
-             kicked and drifted, contact i computed, granule i finished, in one
-             sweep. u, v, f are each read and written once per step (48 B per
-             grain-step instead of ~120 B), at the price of a loop-carried contact
-             force (no SIMD).
-hand_par     hand_3pass with numba prange on both cores (prototype: the
-             parallel speed-up the issue asks about).
+hand_fused         one sweep per step (the engine's algorithm for this scene), no
+                   event counts, no overlap guard: the least a kernel can do.
+hand_fused_events  hand_fused that also reports what the engine's Result reports for
+                   this scene: contact closings and openings (from the overlaps' signs
+                   before and after the step, as the engine) and the every-step
+                   overlap guard (an integer count of contacts whose force reaches
+                   the force at which the centres meet, k (r_i + r_(i+1))^(3/2) = 1).
+hand_uniform_events
+                   hand_fused_events with the mass, stiffness and d0 as run-time
+                   scalars (a kernel for any uniform Hertz chain): exactly what the
+                   engine's ``uniform`` specialisation knows, and no more.
+hand_3pass         the three-pass algorithm (kick+drift / contact forces / net
+                   force+kick), for reference: the engine's old frictionless kernel.
+hand_par           hand_3pass with numba prange on both cores (``--parallel``).
 
-The hand kernels are checked against the engine's final state.
+Engine rate: the kernel alone, called as simulate() calls it, on arrays restored
+outside the timing (kernel); and simulate()'s Result.wall_time, which adds one
+output frame's O(N) numpy checks (wall: meaningless at N = 1e7, where 10-20
+steps cost less than the frame). The hand kernels run on the engine's own u, v, f
+arrays, reset outside the timing (same memory, no first-touch page faults). Overhead =
+engine time / hand time - 1 (goal <= 3 %). Best of ``--repeat``, interleaved.
+The hand kernels' final states are checked against the engine's.
 
 Second part, per-call overhead (matters for the two-granule maps, where a run is
-microseconds): granular_chain._compile.specialised computes numba.typeof of
-every argument (~28 for verlet_chunk) on *every* run to find the compiled entry
-point. Prototype: a key of (literal values, dtype/ndim/layout of arrays, Python
-type of scalars) checked first, falling back to ``specialised`` on a miss. It is
-installed by monkeypatching for the measurement only (granular_chain is not
-edited); collide() is timed with and without it. Since commit 39ebfe9 the engine's
-own lookup uses such a key, so both rows now measure the same thing.
+microseconds): collide() timed with the engine's own specialisation lookup and
+with a prototype key (kept for the record: since 39ebfe9 the engine's lookup
+uses such a key, so both rows measure the same thing).
 
-Third part (``--fused-only``): the engine's general verlet_chunk with its passes
-fused into one sweep (fused_chunk), run through the real simulate(). The new u, v
-of granule i+1 travel to the next iteration in registers and the last granule is
-peeled off the loop (a version storing and reloading them, or testing i inside
-the loop, was 3x slower than the engine). Measured 1.65-1.93x without friction,
-1.2-1.4x with drag only, 0.25x with Coulomb friction (whose three-pass kick
-loops vectorise): the proposal is the sweep for scenes without Coulomb friction.
+The fused-sweep prototype that used to live here (``--fused-only``,
+``fused_chunk``) is gone: verlet_chunk now contains the sweep.
 
-    python benchmarks/specialisation_overhead.py          # about a minute
+    python benchmarks/specialisation_overhead.py --skip-dispatch   # kernels only, a few minutes
 """
 
 from __future__ import annotations
@@ -105,6 +108,104 @@ def hand_fused(u, v, f, c, dt, n_steps):
         u[N - 1] = ui
 
 
+@numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
+def hand_fused_events(u, v, f, c, dt, n_steps):
+    """hand_fused plus the engine's outputs for this scene: contact closings and
+    openings (overlap sign before and after the step) and the overlap guard."""
+    h = 0.5 * dt
+    N = u.size
+    n_close = 0
+    n_open = 0
+    for step in range(n_steps):
+        uo = u[0]
+        vi = v[0] + h * f[0]
+        ui = uo + dt * vi
+        left = 0.0
+        n_hard = 0
+        n_change = 0
+        n_net = 0
+        for i in range(N - 1):
+            uon = u[i + 1]
+            vn = v[i + 1] + h * f[i + 1]
+            un = uon + dt * vn
+            d = max(ui - un, 0.0)
+            cr = d * math.sqrt(d)
+            n_hard += 1 if cr >= 1.0 else 0  # centres meet at overlap 1, force 1
+            was = 1 if uo - uon > 0.0 else 0
+            now = 1 if ui - un > 0.0 else 0
+            n_change += now ^ was  # cheaper than two and-not counts
+            n_net += now - was
+            F = left - cr
+            f[i] = F
+            v[i] = vi + h * F
+            u[i] = ui
+            left = cr
+            uo = uon
+            vi = vn
+            ui = un
+        F = left
+        f[N - 1] = F
+        v[N - 1] = vi + h * F
+        u[N - 1] = ui
+        n_close += (n_change + n_net) >> 1
+        n_open += (n_change - n_net) >> 1
+        if n_hard > 0:
+            for i in range(N - 1):
+                if u[i] - u[i + 1] >= 1.0:
+                    return n_close, n_open, step + 1
+    return n_close, n_open, n_steps
+
+
+@numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
+def hand_uniform_events(u, v, f, c, dt, n_steps, m=1.0, k=1.0, d0=0.0, fcap=1.0):
+    """hand_fused_events for any uniform Hertz chain: the mass, stiffness, initial
+    overlap and overlap-guard force are run-time scalars, not folded constants
+    (what the engine's ``uniform`` specialisation knows, and no more)."""
+    h = 0.5 * dt
+    hm = h / m
+    N = u.size
+    n_close = 0
+    n_open = 0
+    for step in range(n_steps):
+        uo = u[0]
+        vi = v[0] + hm * f[0]
+        ui = uo + dt * vi
+        left = 0.0
+        n_hard = 0
+        n_change = 0
+        n_net = 0
+        for i in range(N - 1):
+            uon = u[i + 1]
+            vn = v[i + 1] + hm * f[i + 1]
+            un = uon + dt * vn
+            d = max(d0 + ui - un, 0.0)
+            cr = k * d * math.sqrt(d)
+            n_hard += 1 if cr >= fcap else 0
+            was = 1 if uo - uon > -d0 else 0
+            now = 1 if ui - un > -d0 else 0
+            n_change += now ^ was
+            n_net += now - was
+            F = left - cr
+            f[i] = F
+            v[i] = vi + hm * F
+            u[i] = ui
+            left = cr
+            uo = uon
+            vi = vn
+            ui = un
+        F = left
+        f[N - 1] = F
+        v[N - 1] = vi + hm * F
+        u[N - 1] = ui
+        n_close += (n_change + n_net) >> 1
+        n_open += (n_change - n_net) >> 1
+        if n_hard > 0:
+            for i in range(N - 1):
+                if d0 + u[i] - u[i + 1] >= 1.0:
+                    return n_close, n_open, step + 1
+    return n_close, n_open, n_steps
+
+
 @numba.njit(cache=True, parallel=True, fastmath={"reassoc", "contract", "nsz"})
 def hand_par(u, v, f, c, dt, n_steps):
     h = 0.5 * dt
@@ -124,212 +225,100 @@ def hand_par(u, v, f, c, dt, n_steps):
             v[i] += h * F
 
 
-def run_hand(kernel, N, steps, dt=0.01):
-    u = np.zeros(N)
-    v = np.zeros(N)
+HAND = {"hand_fused": hand_fused, "hand_fused_events": hand_fused_events,
+        "hand_uniform_events": hand_uniform_events, "hand_3pass": hand_3pass, "hand_par": hand_par}
+
+
+def hand_state(N):
+    """Preallocated, touched arrays for a hand kernel: u, v, f, c."""
+    return np.zeros(N), np.zeros(N), np.zeros(N), np.zeros(max(N - 1, 1))
+
+
+def run_hand(kernel, state, steps, dt=0.01):
+    """Reset the struck chain in place (outside the timing) and time ``steps`` steps."""
+    u, v, f, c = state
+    u[:] = 0.0
+    v[:] = 0.0
     v[0] = 1.0
-    f = np.zeros(N)
-    c = np.zeros(N - 1)
+    f[:] = 0.0
     t0 = time.perf_counter()
     kernel(u, v, f, c, dt, steps)
-    return time.perf_counter() - t0, u, v
+    return time.perf_counter() - t0
 
 
-def engine(N, steps):
-    out = throughput.measure(N, steps, "frictionless")
-    r = gc.simulate(throughput.chain_scene(N, steps, "frictionless"), progress=False)
-    return out["seconds"], np.asarray(r.x_final) - np.asarray(r.x[0]), np.asarray(r.v_final)
+def overhead_table(grains, grain_steps, repeat, parallel):
+    """Engine (kernel alone; simulate's Result.wall_time) against the hand kernels."""
+    import tiled_kernel_bench as tkb
+    from granular_chain.steppers import verlet
+    names = [n for n in HAND if parallel or n != "hand_par"]
+    for n in names:
+        run_hand(HAND[n], hand_state(10), 2)
+    res = []
+    for N in grains:
+        steps = max(10, int(grain_steps // N))
+        if N >= 1_000_000:
+            steps = max(10, min(steps, 20))
+        named = tkb.build_args(N, "frictionless", "struck")
+        saved = {k: named[k].copy() for k in tkb.STATE}
+        kern = tkb.bind(verlet.verlet_chunk, named)
+        tkb.timed(kern, named, saved, 1)
+        scene = throughput.chain_scene(N, steps, "frictionless")
+        gc.simulate(throughput.chain_scene(N, 2, "frictionless"), progress=False)
+        # The hand kernels run on the engine's own u, v, f arrays (reset before each
+        # call): the same memory, so that placement (alignment, cache-set and 4K
+        # aliasing) cannot favour either side; measured to matter at N = 1e5.
+        shared = (named["u"], named["v"], named["f"], np.zeros(max(N - 1, 1)))
+        states = {n: shared for n in names}
+        finals = {}
+        best = {k: math.inf for k in ["engine_kernel", "engine_wall"] + names}
+        loads = [os.getloadavg()[0]]
+        # interleave the repeats so that load changes hit all variants alike
+        for _ in range(repeat):
+            best["engine_kernel"] = min(best["engine_kernel"], tkb.timed(kern, named, saved, steps))
+            r = gc.simulate(scene, progress=False)
+            best["engine_wall"] = min(best["engine_wall"], r.wall_time)
+            for n in names:
+                best[n] = min(best[n], run_hand(HAND[n], states[n], steps))
+                finals[n] = (shared[0].copy(), shared[1].copy())
+        loads.append(os.getloadavg()[0])
+        ue = np.asarray(r.x_final) - np.asarray(r.x[0])
+        ve = np.asarray(r.v_final)
+        gs = N * steps
+        row = {"grains": N, "steps": steps, "load_min": min(loads), "load_max": max(loads),
+               "engine_event_counts": r.event_counts}
+        for k, t in best.items():
+            row[f"{k}_Mps"] = gs / t / 1e6
+        for n in names:
+            u, v = finals[n]
+            row[f"{n}_maxdiff"] = float(max(np.max(abs(u - ue)), np.max(abs(v - ve))))
+        row["hand_fused_events_counts"] = list(hand_fused_events(*hand_state_struck(N), 0.01, steps))
+        for e in ("engine_kernel", "engine_wall"):
+            for n in ("hand_fused", "hand_fused_events", "hand_uniform_events"):
+                row[f"overhead_{e}_vs_{n}"] = best[e] / best[n] - 1.0
+        res.append(row)
+        print(f"N={N:>9d} steps={steps:>7d} engine kernel {row['engine_kernel_Mps']:7.0f} wall "
+              f"{row['engine_wall_Mps']:7.0f} | hand_fused {row['hand_fused_Mps']:7.0f} "
+              f"(overhead kernel {100 * row['overhead_engine_kernel_vs_hand_fused']:+.1f}%, wall "
+              f"{100 * row['overhead_engine_wall_vs_hand_fused']:+.1f}%) | hand_fused_events "
+              f"{row['hand_fused_events_Mps']:7.0f} (overhead kernel "
+              f"{100 * row['overhead_engine_kernel_vs_hand_fused_events']:+.1f}%, wall "
+              f"{100 * row['overhead_engine_wall_vs_hand_fused_events']:+.1f}%) | hand_uniform_events "
+              f"{row['hand_uniform_events_Mps']:7.0f} (overhead kernel "
+              f"{100 * row['overhead_engine_kernel_vs_hand_uniform_events']:+.1f}%, wall "
+              f"{100 * row['overhead_engine_wall_vs_hand_uniform_events']:+.1f}%) | hand_3pass "
+              f"{row['hand_3pass_Mps']:7.0f}"
+              + (f" | par(2) {row['hand_par_Mps']:7.0f}" if parallel else "")
+              + f" | max diff {max(row[f'{n}_maxdiff'] for n in names):.1e} | events engine "
+              f"{r.event_counts['contact_close']}/{r.event_counts['contact_open']} hand "
+              f"{row['hand_fused_events_counts'][0]}/{row['hand_fused_events_counts'][1]} "
+              f"(load {row['load_min']:.2f}-{row['load_max']:.2f})", flush=True)
+    return res
 
 
-# ---------------------------------------------------------------------------
-# Prototype of a kernel change: the engine's verlet_chunk with its three passes
-# fused into one sweep (same laws, kicks, drifts, walls, events, ledger). Granule
-# i+1 gets its first half kick and drift, then contact i is evaluated, then
-# granule i gets its second half kick: u, v, f are read and written once per
-# step. Run through the real simulate() by swapping the dispatcher that
-# _compile.specialised is asked for (granular_chain is not edited).
-# ---------------------------------------------------------------------------
-
-from granular_chain.forces import wall_forces  # noqa: E402
-from granular_chain.laws.contact import contact_force  # noqa: E402
-from granular_chain.steppers import verlet as _vl  # noqa: E402
-
-
-@numba.njit(inline="always")
-def _first_half(coulomb, viscous, i, u, v, f, m, inv_m, eta, eta_s, E, P1, P2, dt, inv_dt, h):
-    """The engine's pass 1 for granule i, without stores.
-
-    Returns (wc, wv, n_stop, n_slip, u_new, v_new, du_new)."""
-    if viscous and not coulomb:
-        vv = v[i]
-        a = f[i] * inv_m[i]
-        dui = vv * P1[i] + a * P2[i]
-        return (0.0, -(0.5 * m[i] * vv * vv + 0.5 * f[i] * dui), 0, 0, u[i] + dui,
-                vv * E[i] + a * (P1[i] - P2[i] * inv_dt), dui)
-    v1, a, b, code = _vl.kick(coulomb, i, v[i], f[i], inv_m, eta, eta_s, h)
-    wv = 0.0
-    dui = 0.0
-    if viscous:
-        dui, v1, b = _vl.viscous_drift(v1, m[i], E[i], P1[i])
-        wv = b
-    else:
-        dui = dt * v1
-    return a, wv, code & 1, (code >> 1) & 1, u[i] + dui, v1, dui
-
-
-@numba.njit(inline="always")
-def _second_half(coulomb, viscous, i, F, ui, vi, dui, u, v, f, du, m, inv_m, eta, eta_s, P2,
-                 inv_dt, h):
-    """The engine's pass 3 for granule i (net force F), storing u, v, f: (wc, wv, n_stop, n_slip)."""
-    f[i] = F
-    u[i] = ui
-    if viscous and not coulomb:
-        v1 = vi + F * inv_m[i] * P2[i] * inv_dt
-        du[i] = dui
-        v[i] = v1
-        return 0.0, 0.5 * m[i] * v1 * v1 - 0.5 * F * dui, 0, 0
-    v1, a, b, code = _vl.kick(coulomb, i, vi, F, inv_m, eta, eta_s, h)
-    v[i] = v1
-    return a, 0.0, code & 1, (code >> 1) & 1
-
-
-@numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
-def fused_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
-                u, v, f, c, active, d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2, du,
-                dt, n_steps, stop_contact, ledger, counts):
-    """verlet_chunk with one sweep per step; granule i's new u, v are carried in
-    registers from the first half (done one iteration ahead) to the second half."""
-    law = numba.literally(law)
-    coulomb = numba.literally(coulomb)
-    viscous = numba.literally(viscous)
-    left_wall = numba.literally(left_wall)
-    right_wall = numba.literally(right_wall)
-    stop_mode = numba.literally(stop_mode)
-    h = 0.5 * dt
-    inv_dt = 1.0 / dt
-    N = u.size
-    for step in range(n_steps):
-        watched_was = active[stop_contact]
-        wc, wv, n_stop, n_slip, ui, vi, dui = _first_half(coulomb, viscous, 0, u, v, f, m, inv_m,
-                                                          eta, eta_s, E, P1, P2, dt, inv_dt, h)
-        left = 0.0
-        if left_wall:
-            left = contact_force(law, walls[0] - ui, walls[1], walls[2])
-        n_close = 0
-        n_open = 0
-        # granules 0 .. N-2: the loop body has no test on i (that alone cost 3x)
-        for i in range(N - 1):
-            a, b, s1, s2, un, vn, dun = _first_half(coulomb, viscous, i + 1, u, v, f, m, inv_m,
-                                                    eta, eta_s, E, P1, P2, dt, inv_dt, h)
-            wc += a
-            wv += b
-            n_stop += s1
-            n_slip += s2
-            right = contact_force(law, d0[i] + ui - un, k[i], n[i])
-            c[i] = right
-            a, b, s1, s2 = _second_half(coulomb, viscous, i, left - right, ui, vi, dui, u, v, f,
-                                        du, m, inv_m, eta, eta_s, P2, inv_dt, h)
-            wc += a
-            wv += b
-            n_stop += s1
-            n_slip += s2
-            now = 1 if right > 0.0 else 0
-            was = active[i]
-            n_close += now & (1 - was)
-            n_open += was & (1 - now)
-            active[i] = now
-            left = right
-            ui = un
-            vi = vn
-            dui = dun
-        right = 0.0
-        if right_wall:
-            right = contact_force(law, walls[3] + ui, walls[4], walls[5])
-        a, b, s1, s2 = _second_half(coulomb, viscous, N - 1, left - right, ui, vi, dui, u, v, f,
-                                    du, m, inv_m, eta, eta_s, P2, inv_dt, h)
-        wc += a
-        wv += b
-        n_stop += s1
-        n_slip += s2
-        if coulomb:
-            ledger[0] -= wc
-            counts[_vl.EV_STOP] += n_stop
-            counts[_vl.EV_SLIP] += n_slip
-        if viscous:
-            ledger[1] -= wv
-        counts[_vl.EV_CLOSE] += n_close
-        counts[_vl.EV_OPEN] += n_open
-        if stop_mode & _vl.STOP_ON_SEPARATION:
-            if watched_was == 1 and active[stop_contact] == 0:
-                return step + 1, _vl.SEPARATED
-        if stop_mode & _vl.STOP_ON_REST:
-            rest = True
-            for i in range(N):
-                if v[i] != 0.0:
-                    rest = False
-                    break
-            if rest:
-                return step + 1, _vl.AT_REST
-    return n_steps, _vl.RAN_CHUNK
-
-
-def run_fused(scene, fused, random_v=False):
-    """simulate(scene) with verlet_chunk (fused=False) or fused_chunk (fused=True)."""
-    from granular_chain import _compile
-    from granular_chain.model import build_model
-    gsim = sys.modules["granular_chain.simulate"]
-    orig = gsim.specialised
-
-    def swap(dispatcher, args, literal):
-        if fused and dispatcher is _vl.verlet_chunk:
-            dispatcher = fused_chunk
-        return _compile.specialised(dispatcher, args, literal)
-    gsim.specialised = swap
-    try:
-        model = build_model(scene)
-        if random_v:
-            model.v0[:] = np.random.default_rng(1).uniform(-0.1, 0.1, model.count)
-        return gsim._simulate_verlet(scene, model, False)
-    finally:
-        gsim.specialised = orig
-
-
-def fused_prototype(Ns=(1000, 100_000, 10_000_000), grain_steps=1e8, repeat=3,
-                    cases=(("frictionless", "struck"), ("coulomb+viscous", "struck"),
-                           ("coulomb", "random"), ("coulomb+viscous", "random"))):
-    out = []
-    for features, initial in cases:
-        for N in Ns:
-            steps = max(20, int(grain_steps // N))
-            if initial == "random":
-                steps = min(steps, 1000)
-            scene = throughput.chain_scene(N, steps, features)
-            small = throughput.chain_scene(N, 2, features)
-            run_fused(small, False, initial == "random")
-            run_fused(small, True, initial == "random")
-            best = {False: math.inf, True: math.inf}
-            res = {}
-            for _ in range(repeat):
-                for fz in (False, True):
-                    r = run_fused(scene, fz, initial == "random")
-                    best[fz] = min(best[fz], r.wall_time)
-                    res[fz] = r
-            a, b = res[False], res[True]
-            diff = float(max(np.max(abs(a.x_final - b.x_final)), np.max(abs(a.v_final - b.v_final))))
-            row = {"features": features, "initial": initial, "grains": N, "steps": steps,
-                   "engine_Mps": N * steps / best[False] / 1e6,
-                   "fused_Mps": N * steps / best[True] / 1e6,
-                   "speedup": best[False] / best[True], "max_state_diff": diff,
-                   "same_event_counts": a.event_counts == b.event_counts,
-                   "event_counts": [a.event_counts, b.event_counts],
-                   "ledger_diff": float(abs(a.energy.balance_error - b.energy.balance_error)),
-                   "load": os.getloadavg()[0]}
-            out.append(row)
-            print(f"fused prototype {features:16s} {initial:6s} N={N:>9d}: engine {row['engine_Mps']:7.1f} "
-                  f"M/s, fused {row['fused_Mps']:7.1f} M/s (x{row['speedup']:.2f}); state diff {diff:.1e}, "
-                  f"same event counts {row['same_event_counts']} (load {row['load']:.2f})"
-                  + ("" if row["same_event_counts"] else f" {a.event_counts} vs {b.event_counts}"), flush=True)
-    return out
+def hand_state_struck(N):
+    u, v, f, c = hand_state(N)
+    v[0] = 1.0
+    return u, v, f, c
 
 
 _FAST = {}
@@ -420,64 +409,22 @@ def dispatch_overhead(repeat=2000):
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--grains", type=int, nargs="*", default=[1000, 10_000, 100_000, 10_000_000])
-    p.add_argument("--grain-steps", type=float, default=2e8)
+    p.add_argument("--grain-steps", type=float, default=1e8)
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--skip-kernels", action="store_true")
-    p.add_argument("--fused-only", action="store_true",
-                   help="only the fused-sweep prototype of verlet_chunk")
+    p.add_argument("--skip-dispatch", action="store_true")
+    p.add_argument("--parallel", action="store_true", help="also time hand_par (prange, 2 threads)")
+    p.add_argument("--out", default=os.path.join(HERE, "results", "specialisation_overhead.json"))
     a = p.parse_args()
-    if a.fused_only:
-        fz = fused_prototype()
-        os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
-        with open(os.path.join(HERE, "results", "fused_prototype.json"), "w") as fh:
-            json.dump(fz, fh, indent=1)
-        return
-    disp = dispatch_overhead()
     os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
-    with open(os.path.join(HERE, "results", "dispatch_overhead.json"), "w") as fh:
-        json.dump(disp, fh, indent=1)
+    if not a.skip_dispatch:
+        disp = dispatch_overhead()
+        with open(os.path.join(HERE, "results", "dispatch_overhead.json"), "w") as fh:
+            json.dump(disp, fh, indent=1)
     if a.skip_kernels:
         return
-    for k in (hand_3pass, hand_fused, hand_par):
-        run_hand(k, 10, 2)
-    res = []
-    for N in a.grains:
-        steps = max(10, int(a.grain_steps // N))
-        if N >= 1_000_000:
-            steps = max(10, min(steps, 20))
-        row = {"grains": N, "steps": steps, "load": os.getloadavg()[0]}
-        t_eng, ue, ve = math.inf, None, None
-        times = {k: math.inf for k in ("hand_3pass", "hand_fused", "hand_par")}
-        # interleave the repeats so that load changes hit all variants alike
-        for _ in range(a.repeat):
-            out = throughput.measure(N, steps, "frictionless")
-            t_eng = min(t_eng, out["seconds"])
-            for name, k in (("hand_3pass", hand_3pass), ("hand_fused", hand_fused),
-                            ("hand_par", hand_par)):
-                t, u, v = run_hand(k, N, steps)
-                times[name] = min(times[name], t)
-                row[f"{name}_state"] = (u, v)
-        r = gc.simulate(throughput.chain_scene(N, steps, "frictionless"), progress=False)
-        ue, ve = np.asarray(r.x_final) - np.asarray(r.x[0]), np.asarray(r.v_final)
-        gs = N * steps
-        row["engine_Mps"] = gs / t_eng / 1e6
-        for name in times:
-            u, v = row.pop(f"{name}_state")
-            row[f"{name}_Mps"] = gs / times[name] / 1e6
-            row[f"{name}_maxdiff"] = float(max(np.max(abs(u - ue)), np.max(abs(v - ve))))
-        row["overhead_vs_hand_3pass"] = t_eng / times["hand_3pass"] - 1.0
-        row["fused_speedup_vs_engine"] = t_eng / times["hand_fused"]
-        row["parallel_speedup_vs_hand_3pass"] = times["hand_3pass"] / times["hand_par"]
-        row["load_end"] = os.getloadavg()[0]
-        res.append(row)
-        print(f"N={N:>9d} steps={steps:>7d} engine {row['engine_Mps']:8.1f} M/s | hand_3pass "
-              f"{row['hand_3pass_Mps']:8.1f} (overhead {100 * row['overhead_vs_hand_3pass']:+.1f}%) | "
-              f"fused {row['hand_fused_Mps']:8.1f} | par(2) {row['hand_par_Mps']:8.1f} "
-              f"(x{row['parallel_speedup_vs_hand_3pass']:.2f}) | max diff "
-              f"{row['hand_3pass_maxdiff']:.1e}/{row['hand_fused_maxdiff']:.1e} "
-              f"(load {row['load']:.2f}-{row['load_end']:.2f})", flush=True)
-    os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
-    with open(os.path.join(HERE, "results", "specialisation_overhead.json"), "w") as fh:
+    res = overhead_table(a.grains, a.grain_steps, a.repeat, a.parallel)
+    with open(a.out, "w") as fh:
         json.dump(res, fh, indent=1)
 
 

@@ -25,6 +25,7 @@ bandwidth.py).
 
     python benchmarks/throughput_scaling.py            # ~3 minutes
     python benchmarks/throughput_scaling.py --max-n 1e6 --repeat 2
+    python benchmarks/throughput_scaling.py --csv results/x.csv --figure x.png   # elsewhere
 """
 
 from __future__ import annotations
@@ -40,7 +41,8 @@ sys.path.insert(0, HERE)
 
 import throughput  # noqa: E402
 
-CASES = [("frictionless", "struck"), ("coulomb+viscous", "struck"), ("coulomb+viscous", "random")]
+CASES = [("frictionless", "struck"), ("viscous", "struck"), ("coulomb+viscous", "struck"),
+         ("coulomb+viscous", "random")]
 
 
 def bandwidth():
@@ -62,15 +64,18 @@ def main():
     p.add_argument("--grain-steps", type=float, default=1e8)
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--plot-only", action="store_true", help="redraw from the stored CSV")
+    p.add_argument("--csv", default=os.path.join(HERE, "results", "throughput_scaling.csv"))
+    p.add_argument("--figure", default=os.path.join(HERE, "..", "docs", "figures",
+                                                    "perf_throughput_scaling.png"))
     p.add_argument("--cases", nargs="*", default=None,
                    help="only these cases (e.g. 'coulomb+viscous random'); their rows replace "
                         "the stored ones in the CSV")
     a = p.parse_args()
     if a.plot_only:
-        with open(os.path.join(HERE, "results", "throughput_scaling.csv")) as fh:
+        with open(a.csv) as fh:
             rows = [{k: (v if k in ("case", "features", "initial", "status") else float(v or "nan"))
                      for k, v in r.items()} for r in csv.DictReader(fh)]
-        plot(rows, bandwidth(), os.path.join(HERE, "..", "docs", "figures", "perf_throughput_scaling.png"))
+        plot(rows, bandwidth(), a.figure)
         return
     Ns = [n for n in (100, 1000, 10_000, 100_000, 1_000_000, 10_000_000) if n <= a.max_n]
     rows = []
@@ -103,7 +108,7 @@ def main():
     os.makedirs(os.path.join(HERE, "results"), exist_ok=True)
     keys = ["case", "features", "initial", "grains", "steps", "seconds", "grain_steps_per_s", "marginal_grain_steps_per_s",
             "energy_balance_error", "status", "load"]
-    path = os.path.join(HERE, "results", "throughput_scaling.csv")
+    path = a.csv
     if a.cases is not None and os.path.exists(path):
         with open(path) as fh:
             kept = [{k: (v if k in ("case", "features", "initial", "status") else float(v))
@@ -114,7 +119,7 @@ def main():
         w.writeheader()
         w.writerows(rows)
     bw = bandwidth()
-    plot(rows, bw, os.path.join(HERE, "..", "docs", "figures", "perf_throughput_scaling.png"))
+    plot(rows, bw, a.figure)
 
 
 def plot(rows, bw, path):
@@ -122,8 +127,8 @@ def plot(rows, bw, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(10.0, 4.8))
-    for case, sty in (("frictionless struck", "o-"), ("coulomb+viscous struck", "s-"),
-                      ("coulomb+viscous random", "^-")):
+    for case, sty in (("frictionless struck", "o-"), ("viscous struck", "d-"),
+                      ("coulomb+viscous struck", "s-"), ("coulomb+viscous random", "^-")):
         rr = [r for r in rows if r["case"] == case]
         if rr:
             ln, = ax.loglog([r["grains"] for r in rr], [r["marginal_grain_steps_per_s"] for r in rr],

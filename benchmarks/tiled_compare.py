@@ -35,6 +35,24 @@ def scenes():
                                   stop="separation", struck=True)
     out["stop rest"] = dict(N=2000, feat="coulomb", steps=2_000_000, walls=False, exponent=2.5,
                             stop="rest")
+    # paths of the single sweep (scenes without Coulomb friction, verlet-sweep branch)
+    for feat in ("frictionless", "viscous"):
+        out[f"N=1 walls {feat}"] = dict(N=1, feat=feat, steps=5000, walls=True, exponent=2.5, stop=None)
+        out[f"N=2 walls {feat} n=2"] = dict(N=2, feat=feat, steps=5000, walls=True, exponent=2.0,
+                                            stop=None)
+        out[f"overlap {feat}"] = dict(N=50, feat=feat, steps=5000, walls=False, exponent=2.5, stop=None,
+                                      struck=True, v=20.0)
+    out["stop separation viscous"] = dict(N=5000, feat="viscous", steps=200000, walls=False,
+                                          exponent=2.5, stop="separation", struck=True)
+    # well-conditioned separations (the touching chain's "stop separation" above is
+    # not: behind the pulse its contacts sit at delta = 0 to roundoff, so whether
+    # contact 100 opens depends on the last bit of the displacements)
+    for feat in ("frictionless", "viscous"):
+        out[f"stop separation gap {feat}"] = dict(N=500, feat=feat, steps=200000, walls=False,
+                                                  exponent=2.5, stop="separation", struck=True,
+                                                  gap=0.01)
+    out["chain1e5 frictionless struck n=3"] = dict(N=100_000, feat="frictionless", steps=3000,
+                                                   walls=False, exponent=3.0, stop=None, struck=True)
     return out
 
 
@@ -49,8 +67,8 @@ def run(spec, seed=1):
         if spec["stop"] == "separation":
             run["stop_contact"] = 100
     d = {"name": "cmp",
-         "granules": {"count": N, "mass": 1.0, "radius": 0.5, "gap": 0.0,
-                      "velocity": {0: 1.0}, "friction": FRICTION[spec["feat"]]},
+         "granules": {"count": N, "mass": 1.0, "radius": 0.5, "gap": spec.get("gap", 0.0),
+                      "velocity": {0: spec.get("v", 1.0)}, "friction": FRICTION[spec["feat"]]},
          "contacts": {"exponent": spec["exponent"], "stiffness": 1.0},
          "run": run, "output": {"every": max(1, spec["steps"] // 3), "trajectory": False}}
     if spec["walls"]:
@@ -64,10 +82,12 @@ def run(spec, seed=1):
     return r
 
 
-def dump(path):
+def dump(path, only=None):
     res = {}
     meta = {}
     for name, spec in scenes().items():
+        if only and not any(o in name for o in only):
+            continue
         r = run(spec)
         res[name + "|x"] = r.x_final
         res[name + "|v"] = r.v_final
@@ -101,8 +121,9 @@ if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--dump")
     p.add_argument("--compare", nargs=2)
+    p.add_argument("--only", nargs="*", help="dump only the scenes whose names contain one of these")
     a = p.parse_args()
     if a.dump:
-        dump(a.dump)
+        dump(a.dump, a.only)
     if a.compare:
         compare(*a.compare)

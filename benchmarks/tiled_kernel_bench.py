@@ -33,7 +33,8 @@ from granular_chain._compile import specialised  # noqa: E402
 from granular_chain.model import build_model  # noqa: E402
 from granular_chain.steppers import verlet  # noqa: E402
 
-CASES = [("frictionless", "struck"), ("coulomb+viscous", "struck"), ("coulomb+viscous", "random")]
+CASES = [("frictionless", "struck"), ("viscous", "struck"), ("coulomb+viscous", "struck"),
+         ("coulomb+viscous", "random")]
 
 
 def load_old(root):
@@ -45,11 +46,20 @@ def load_old(root):
     return mod
 
 
-def build_args(N, features, initial, seed=1):
+def build_args(N, features, initial, seed=1, per_granule=False):
+    """The kernel's arguments by name, built as simulate() builds them (the old
+    kernel's unused ``c`` and ``du`` included, so either signature can be served)."""
     scene = throughput.chain_scene(N, 10, features)
     model = build_model(scene)
     if initial == "random":
         model.v0[:] = np.random.default_rng(seed).uniform(-0.1, 0.1, model.count)
+    if per_granule:
+        # masses and stiffnesses varied by +-0.1 %: the same physics, but the
+        # parameters are no longer uniform (the kernel streams them)
+        rng = np.random.default_rng(seed + 1)
+        model.mass[:] *= 1.0 + 1e-3 * rng.uniform(-1.0, 1.0, model.count)
+        model.inv_mass[:] = 1.0 / model.mass
+        model.k[:] *= 1.0 + 1e-3 * rng.uniform(-1.0, 1.0, model.k.size)
     feat = model.features
     dt = scene.run.dt
     u = np.zeros(N)
@@ -59,19 +69,38 @@ def build_args(N, features, initial, seed=1):
     sim._net_forces(model, u, c, f)
     active = (c[: max(N - 1, 0)] > 0).astype(np.uint8)
     E, P1, P2 = sim._drift_coefficients(model, dt)
-    args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
-            int(feat.right_wall), 0, u, v, f, c, active, model.d0, model.k,
-            model.n, model.walls, model.mass, model.inv_mass, model.eta,
-            model.eta_static, E, P1, P2, np.zeros(N), dt, 0, 0, np.zeros(2), np.zeros(4, dtype=np.int64)]
-    return args
+    olim, fcap = sim._overlap_caps(model)
+    return dict(law=feat.law, coulomb=int(feat.coulomb), viscous=int(feat.viscous),
+                left_wall=int(feat.left_wall), right_wall=int(feat.right_wall), stop_mode=0,
+                uniform=sim._uniform_code(model, feat, E, P1, P2),
+                u=u, v=v, f=f, c=c, active=active, d0=model.d0, k=model.k, n=model.n,
+                walls=model.walls, m=model.mass, inv_m=model.inv_mass, eta=model.eta,
+                eta_s=model.eta_static, E=E, P1=P1, P2=P2, du=np.zeros(N), dt=dt, n_steps=0,
+                stop_contact=0, ledger=np.zeros(2), counts=np.zeros(4, dtype=np.int64),
+                olim=olim, fcap=fcap)
 
 
-def timed(kernel, args, saved, steps):
+STATE = ("u", "v", "f", "active", "ledger", "counts")
+FEATURES = ("law", "coulomb", "viscous", "left_wall", "right_wall", "stop_mode", "uniform")
+
+
+def bind(dispatcher, named):
+    """(compiled entry point, its argument list, index of n_steps) for a kernel of
+    either signature (arguments looked up by name)."""
+    py = getattr(dispatcher, "py_func", dispatcher)
+    names = py.__code__.co_varnames[:py.__code__.co_argcount]
+    args = [named[a] for a in names]
+    literal = tuple(i for i, a in enumerate(names) if a in FEATURES)
+    return specialised(dispatcher, tuple(args), literal), args, names.index("n_steps")
+
+
+def timed(kernel, named, saved, steps):
+    entry, args, at = kernel
     for name, x in saved.items():
-        args[name][:] = x
-    args[24] = steps
+        named[name][:] = x
+    args[at] = steps
     t = time.perf_counter()
-    kernel(*args)
+    entry(*args)
     return time.perf_counter() - t
 
 
@@ -84,6 +113,8 @@ def main():
     p.add_argument("--repeat", type=int, default=7)
     p.add_argument("--cases", nargs="*", default=None)
     p.add_argument("--json", default=None)
+    p.add_argument("--per-granule", action="store_true",
+                   help="vary masses and stiffnesses by +-0.1 %% (non-uniform parameters)")
     a = p.parse_args()
     cases = [c for c in CASES if a.cases is None or f"{c[0]} {c[1]}" in a.cases]
     for features, initial in cases:
@@ -91,30 +122,31 @@ def main():
             steps = max(10, int(a.grain_steps // N))
             if initial == "random":
                 steps = min(steps, 1000)
-            args = build_args(N, features, initial)
-            saved = {i: args[i].copy() for i in (6, 7, 8, 10, 26, 27)}
+            named = build_args(N, features, initial, per_granule=a.per_granule)
+            saved = {name: named[name].copy() for name in STATE}
             kernels = {}
             if a.blocks:
                 for B in a.blocks:
                     verlet.BLOCK = B
                     # a fresh dispatcher: recompiled with this BLOCK, no disk cache
                     fresh = numba.njit(fastmath={"reassoc", "contract", "nsz"})(verlet.verlet_chunk.py_func)
-                    kernels[f"B={B}"] = specialised(fresh, tuple(args), (0, 1, 2, 3, 4, 5))
-                    timed(kernels[f"B={B}"], args, saved, 1)
+                    kernels[f"B={B}"] = bind(fresh, named)
+                    timed(kernels[f"B={B}"], named, saved, 1)
                 verlet.BLOCK = a.blocks[0]
             else:
                 old = load_old(a.old)
-                kernels["old"] = specialised(old.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
-                kernels["new"] = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
+                kernels["old"] = bind(old.verlet_chunk, named)
+                kernels["new"] = bind(verlet.verlet_chunk, named)
                 for k in kernels.values():
-                    timed(k, args, saved, 1)
+                    timed(k, named, saved, 1)
             best = {k: float("inf") for k in kernels}
             loads = [os.getloadavg()[0]]
             for _ in range(a.repeat):
                 for name, k in kernels.items():
-                    best[name] = min(best[name], timed(k, args, saved, steps))
+                    best[name] = min(best[name], timed(k, named, saved, steps))
             loads.append(os.getloadavg()[0])
-            row = {"case": f"{features} {initial}", "grains": N, "steps": steps,
+            row = {"case": f"{features} {initial}" + (" per-granule" if a.per_granule else ""),
+                   "grains": N, "steps": steps, "uniform": named["uniform"],
                    "load_min": min(loads), "load_max": max(loads)}
             row.update({name: N * steps / t / 1e6 for name, t in best.items()})
             print(json.dumps(row), flush=True)

@@ -199,7 +199,6 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     if active.size == 0:
         active = np.zeros(1, dtype=np.uint8)
     E, P1, P2 = _drift_coefficients(model, dt)
-    du = np.zeros(N)
     ledger = np.zeros(2)
     counts = np.zeros(4, dtype=np.int64)
 
@@ -216,11 +215,11 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     t_now = 0.0
     start = time.perf_counter()
     args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
-            int(feat.right_wall), stop_mode, u, v, f, c, active, model.d0, model.k,
+            int(feat.right_wall), stop_mode, _uniform_code(model, feat, E, P1, P2), u, v, f, active, model.d0, model.k,
             model.n, model.walls, model.mass, model.inv_mass, model.eta,
-            model.eta_static, E, P1, P2, du, dt, 0, stop_contact, ledger, counts,
+            model.eta_static, E, P1, P2, dt, 0, stop_contact, ledger, counts,
             *_overlap_caps(model)]
-    kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5))
+    kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5, 6))
     n_steps_at = _KERNEL_ARGS.index("n_steps")
     try:
         while steps < n_total:
@@ -284,6 +283,17 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     return _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
 
 
+
+
+def _uniform_code(model: Model, feat, E, P1, P2) -> int:
+    """Kernel feature code: 1 when every granule has the same parameters and every
+    contact the same (d0, k, n), so the single sweep reads scalars and streams only
+    u, v, f. Only the sweep (scenes without Coulomb friction) uses it; 0 otherwise,
+    so that Coulomb scenes do not compile a second, identical specialisation."""
+    if feat.coulomb:
+        return 0
+    arrays = (model.mass, model.inv_mass, E, P1, P2, model.d0, model.k, model.n)
+    return int(all(a.size == 0 or bool(np.all(a == a[0])) for a in arrays))
 
 
 def _overlap_limits(model: Model):

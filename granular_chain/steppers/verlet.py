@@ -25,12 +25,26 @@ The compiled driver :func:`verlet_chunk` advances a whole chunk of steps
 feature codes are compile-time literals, so each feature set compiles (and is
 cached on disk) once and code for absent features is not generated.
 
-A step is three passes: (1) first kick + drift, (2) contact forces and contact
-events, (3) net force + second kick. Run over the whole chain one after the
-other, they would stream every array from memory three times per step once the
-chain outgrows the caches (N >~ 1e5). So the step is *cache-blocked*: the chain
-is walked in blocks of ``BLOCK`` granules, and for each block [a, b) the three
-passes run back to back, software-pipelined by one granule:
+Two shapes of the same step, chosen at compile time by the ``coulomb`` code:
+
+*Scenes without Coulomb friction* (frictionless, drag only) take **one sweep**
+per step: granule i+1 gets its first half kick and drift, contact i its force,
+granule i its second half kick, so u, v and f stream from memory once per step.
+Granule i+1's new u, v travel to the next iteration in registers; LLVM
+vectorises the sweep as a first-order recurrence (vsqrtpd in its code). When
+every granule has the same parameters and every contact the same (d0, k, n)
+(feature code ``uniform``), the parameters are read once as scalars and the
+sweep streams only u, v, f: 48 B per grain-step, against 72 B with per-granule
+parameters.
+
+*Scenes with Coulomb friction* take **three cache-blocked passes**: (1) first
+kick + drift, (2) contact forces and contact events, (3) net force + second
+kick. Their kick loops vectorise (8 granules per AVX-512 instruction) where the
+sweep's branch-free Coulomb kick carried from one iteration to the next does not
+(the sweep measured 4x slower with Coulomb friction). The chain is walked in
+blocks of ``BLOCK`` granules (``BLOCK_LONG`` on long chains), and for each
+block [a, b) the three passes run back to back, software-pipelined by one
+granule:
 
 * pass 1 on granules a .. b-1;
 * pass 2 on the contacts whose two granules are now drifted, max(a-1, 0) .. b-2
@@ -38,17 +52,19 @@ passes run back to back, software-pipelined by one granule:
 * pass 3 on the granules whose two contacts are now known, a-1 .. b-2 (to N-1
   on the last block).
 
-A block's arrays (about 10 x 8 KiB for BLOCK = 1024) stay in L1/L2 between the
-passes, so u, v, f and the parameters come from memory once per step. The
-contact forces live in a block-local buffer (the last one carried to the next
-block), as do the displacements of the step of drag-only scenes, so neither is
-ever written to memory. Every pass stays a simple loop over a block with no
-loop-carried value except reductions, so each still vectorises (with Coulomb
-friction too, unlike a single fused sweep, which has to carry granule i+1's new
-state from one iteration to the next). Each granule sees the same operations
-as in the unblocked three passes, so results are bit-identical to them; only
-the order of the ledger and event sums changes. The separation watch reads its
-contact before the step starts.
+A block's arrays stay in L1/L2 between the passes, so u, v, f and the
+parameters come from memory once per step. The contact forces live in a
+block-local buffer (the last one carried to the next block), never written to
+memory. Every pass stays a simple loop over a block with no loop-carried value
+except reductions, so each vectorises.
+
+A contact counts as closed when its overlap delta > 0 (the same test in both
+shapes, written so that the same displacements always give the same answer).
+The sweep derives each contact's state before and after the step from the
+displacements it has at hand; the blocked passes keep it in the ``active``
+array. The separation watch reads its contact before the step starts; the
+overlap check (centres met) runs every step but costs only an integer count
+unless some contact force reaches ``fcap``.
 """
 
 import numba
@@ -59,8 +75,13 @@ from ..forces import wall_forces
 from ..laws.contact import contact_force
 from ..laws.friction import coulomb_kick, free_kick, viscous_drift
 
-# Granules per block of the tiled step (see the module docstring).
+# Granules per block of the tiled step (see the module docstring). Chains that
+# stream from memory take smaller blocks: BLOCK_LONG was 1.14-1.18x faster than
+# 1024 at N = 1e6, equal at 1e7, but 0.94-0.97x at N <= 1e5 (benchmarks/results/
+# verlet_sweep_blocks.jsonl), so it is used from LONG_CHAIN granules on.
 BLOCK = 1024
+BLOCK_LONG = 256
+LONG_CHAIN = 300_000
 
 ONE = np.uint64(1)
 TWO = np.uint64(2)
@@ -89,31 +110,92 @@ def kick(coulomb, i, v, F, inv_m, eta, eta_s, h):
         return free_kick(v, F, inv_m[i], h)
 
 
+# The sweep's two halves of a step for one granule (scenes without Coulomb
+# friction). Written without a compound test on the feature codes: a test like
+# ``viscous and not coulomb`` inside an inlined function is not pruned at
+# compile time, and in the blocked passes it stopped the kick loop vectorising
+# (Coulomb + viscous 2.2x slower, measured).
+
+@numba.njit(inline="always", cache=True)
+def param(uniform, a, a0, i):
+    """a[i], or a0 = a[0] read once before the loop when every a[i] is equal (uniform):
+    the sweep then streams only u, v, f."""
+    if uniform:
+        return a0
+    return a[i]
+
+
+@numba.njit(inline="always", cache=True)
+def sweep_first_half(viscous, u, v, F, m, inv_m, E, P1, P2, dt, inv_dt, h):
+    """First half kick and drift of one granule (state u, v, net force F, its
+    parameters), without stores: the sweep carries the result to the next iteration.
+
+    Returns (u_new, v_new, du, w_viscous): du, the displacement of the step, is
+    what the drag-only second half needs."""
+    if viscous:
+        # Exponential Verlet: exact for drag, second order for springs.
+        a = F * inv_m
+        du = v * P1 + a * P2
+        return u + du, v * E + a * (P1 - P2 * inv_dt), du, -(0.5 * m * v * v + 0.5 * F * du)
+    else:
+        v1, w1, w2, code = free_kick(v, F, inv_m, h)
+        return u + dt * v1, v1, 0.0, 0.0
+
+
+@numba.njit(inline="always", cache=True)
+def sweep_second_half(viscous, v, F, du, m, inv_m, P2, inv_dt, h):
+    """Second half kick of one granule under net force F: (v_new, w_viscous)."""
+    if viscous:
+        v1 = v + F * inv_m * P2 * inv_dt
+        # viscous work = change of kinetic energy - trapezoidal spring work
+        return v1, 0.5 * m * v1 * v1 - 0.5 * F * du
+    else:
+        v1, w1, w2, code = free_kick(v, F, inv_m, h)
+        return v1, 0.0
+
+
+@numba.njit(inline="always", cache=True)
+def contact_state(coulomb, active, j, d0, u):
+    """1 if contact j is closed: the events array of the blocked passes (Coulomb
+    scenes), or the overlap's sign (the sweep keeps no events array)."""
+    if coulomb:
+        return np.int64(active[j])
+    if u.size < 2:
+        return 0
+    return closed(d0[j], u[j], u[j + 1])
+
+
+@numba.njit(inline="always", cache=True)
+def closed(d0, ua, ub):
+    """Whether a contact of initial overlap d0 between displacements ua, ub is
+    closed (delta > 0), written so that the same two displacements always give
+    the same answer (one subtraction and a comparison: nothing to reassociate)."""
+    return 1 if ua - ub > -d0 else 0
+
+
 @numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
-def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
-                 u, v, f, c, active, d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2, du,
+def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform,
+                 u, v, f, active, d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2,
                  dt, n_steps, stop_contact, ledger, counts, olim, fcap):
     """Advance the state by up to ``n_steps`` velocity-Verlet steps, in place.
 
     Parameters
     ----------
-    law, coulomb, viscous, left_wall, right_wall, stop_mode : int
+    law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform : int
         Compile-time feature codes (``stop_mode``: bit 1 = stop at the opening
-        of ``stop_contact``, bit 2 = stop when every granule is at rest).
+        of ``stop_contact``, bit 2 = stop when every granule is at rest;
+        ``uniform``: 1 when every granule has the same m, inv_m, E, P1, P2 and
+        every contact the same d0, k, n, so that the sweep reads element 0 once;
+        the blocked passes ignore it).
     u, v, f : ndarray, shape (N,)
         Displacements, velocities and net spring forces (f consistent with u on entry).
-    c : ndarray, shape (max(N-1, 1),)
-        Not used (kept for the call signature): the contact forces live in a
-        block-local buffer of BLOCK + 2 values, never written back to memory.
     active : ndarray of uint8, shape (max(N-1, 1),)
-        1 where the contact is closed (delta > 0); updated, for event counting.
+        1 where the contact is closed (delta > 0); updated by the blocked passes
+        (Coulomb scenes) for event counting; the sweep neither reads nor updates it.
     d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2 : ndarray
         Packed parameters (see :class:`granular_chain.model.Model`); E, P1, P2
         the per-granule drag coefficients exp(-c dt), phi1(c, dt), phi2(c, dt),
         c = gamma/m.
-    du : ndarray, shape (N,)
-        Not used (kept for the call signature): the displacements of the step
-        (viscous scenes) live in a block-local buffer.
     dt : float
         Time step.
     n_steps : int
@@ -130,8 +212,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
     fcap : float
         The smallest contact force at which some contact reaches its olim:
         only a step with a contact force reaching it checks the overlaps
-        themselves (a count in the vectorised contact loop is all the check
-        costs otherwise).
+        themselves (a count in the contact loop is all the check costs otherwise).
 
     Returns
     -------
@@ -146,15 +227,21 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
     left_wall = literally(left_wall)
     right_wall = literally(right_wall)
     stop_mode = literally(stop_mode)
+    uniform = literally(uniform)
     h = 0.5 * dt
     inv_dt = 1.0 / dt
     N = u.size
-    # Block-local work arrays (allocated once per chunk, stay in L1):
-    # cb[j] = force of contact a - 2 + j for the block [a, b) (cb[1] = left wall
-    # force on the first block, cb[b - a + 1] = right wall force on the last);
-    # dub[j] = displacement of the step of granule a - 1 + j (viscous scenes).
-    cb = np.zeros(BLOCK + 2)
-    dub = np.zeros(BLOCK + 1)
+    # Block-local buffer of the blocked passes (Coulomb scenes; allocated once
+    # per chunk, stays in L1): cb[j] = force of contact a - 2 + j for the block
+    # [a, b) (cb[1] = left wall force on the first block, cb[b - a + 1] = right
+    # wall force on the last).
+    B = BLOCK_LONG if N >= LONG_CHAIN else BLOCK
+    cb = np.zeros((B if coulomb else 1) + 2)
+    ulast = np.uint64(max(N - 1, 0))
+    # The chain's one value of each parameter (used when uniform; d0, k, n are
+    # empty for a single granule).
+    m0, im0, E0, P10, P20 = m[0], inv_m[0], E[0], P1[0], P2[0]
+    d00, k0, n0 = (d0[0], k[0], n[0]) if N > 1 else (0.0, 0.0, 0.0)
     for step in range(n_steps):
         wc = 0.0
         wv = 0.0
@@ -165,80 +252,129 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
         n_moving = 0
         n_hard = 0
         if stop_mode & STOP_ON_SEPARATION:
-            watched_was = active[stop_contact]
-        for a in range(0, N, BLOCK):
-            b = min(a + BLOCK, N)
-            # Unsigned loop indices: a signed index from a non-zero start gets
-            # numba's negative-index wraparound test, which stops vectorisation
-            # (3x slower). Block-local offsets are written (i + j) - ua >= 0.
-            ua = np.uint64(a)
-            ub = np.uint64(b)
-            ulo = np.uint64(max(a - 1, 0))
-            ue = np.uint64(N if b == N else b - 1)
-            # Pass 1: first half kick and drift of granules [a, b).
-            for i in range(ua, ub):
-                if viscous and not coulomb:
-                    # Exponential Verlet: exact for drag, second order for springs.
-                    vv = v[i]
-                    fi = f[i]
-                    ai = fi * inv_m[i]
-                    dui = vv * P1[i] + ai * P2[i]
-                    u[i] += dui
-                    dub[i + ONE - ua] = dui
-                    v[i] = vv * E[i] + ai * (P1[i] - P2[i] * inv_dt)
-                    wv -= 0.5 * m[i] * vv * vv + 0.5 * fi * dui
-                    continue
-                v1, w1, w2, code = kick(coulomb, i, v[i], f[i], inv_m, eta, eta_s, h)
-                wc += w1
-                n_stop += code & 1
-                n_slip += (code >> 1) & 1
-                if viscous:
-                    dui, v1, w2 = viscous_drift(v1, m[i], E[i], P1[i])
-                    u[i] += dui
-                    wv += w2
-                else:
-                    u[i] += dt * v1
+            watched_was = contact_state(coulomb, active, stop_contact, d0, u)
+        if not coulomb:
+            # One sweep: granule i+1's first half, contact i, granule i's second
+            # half, so u, v, f stream from memory once per step. Granule i+1's new
+            # u, v travel to the next iteration in registers (storing and
+            # reloading them measured 3x slower), and the last granule is peeled
+            # off (a test on i inside the loop cost as much).
+            n_change = 0
+            n_net = 0
+            uo = u[0]
+            ui, vi, dui, w = sweep_first_half(viscous, uo, v[0], f[0], m[0], inv_m[0], E[0], P1[0],
+                                              P2[0], dt, inv_dt, h)
+            wv += w
+            left = 0.0
+            if left_wall:
+                left = contact_force(law, walls[0] - ui, walls[1], walls[2])
+            for i in range(np.uint64(0), ulast):
+                j = i + ONE
+                uon = u[j]
+                un, vn, dun, w = sweep_first_half(
+                    viscous, uon, v[j], f[j], param(uniform, m, m0, j), param(uniform, inv_m, im0, j),
+                    param(uniform, E, E0, j), param(uniform, P1, P10, j), param(uniform, P2, P20, j),
+                    dt, inv_dt, h)
+                wv += w
+                d0i = param(uniform, d0, d00, i)
+                ci = contact_force(law, d0i + ui - un, param(uniform, k, k0, i),
+                                   param(uniform, n, n0, i))
+                n_hard += 1 if ci >= fcap else 0
+                # Contact events from the overlap's sign before and after the step:
+                # both displacements are at hand, so no state array is streamed
+                # (the events array cost 10-25 %, measured on hand kernels).
+                # Counted as changes and net change (2 integer operations a contact
+                # instead of 4; 2-3 % in cache, measured on hand kernels).
+                was = closed(d0i, uo, uon)
+                now = closed(d0i, ui, un)
+                n_change += now ^ was
+                n_net += now - was
+                F = left - ci
+                v1, w = sweep_second_half(viscous, vi, F, dui, param(uniform, m, m0, i),
+                                          param(uniform, inv_m, im0, i), param(uniform, P2, P20, i),
+                                          inv_dt, h)
+                wv += w
+                u[i] = ui
                 v[i] = v1
-            # Walls: the left one acts on granule 0 (first block), the right
-            # one on granule N-1 (last block).
-            if a == 0:
-                fl, fr = wall_forces(law, left_wall, 0, u, walls)
-                cb[1] = fl
-            if b == N:
-                fl, fr = wall_forces(law, 0, right_wall, u, walls)
-                cb[b - a + 1] = fr
-            # Pass 2: contacts whose two granules are drifted, max(a-1, 0) .. b-2
-            # (vectorised; the event counts are reductions).
-            for i in range(ulo, ub - ONE):
-                ci = contact_force(law, d0[i] + u[i] - u[i + ONE], k[i], n[i])
-                cb[i + TWO - ua] = ci
-                n_hard += 1 if ci >= fcap else 0  # an integer reduction: vectorises
-                now = 1 if ci > 0.0 else 0
-                was = active[i]
-                n_close += now & (1 - was)
-                n_open += was & (1 - now)
-                active[i] = now
-            # Pass 3: net force and second half kick of the granules whose two
-            # contacts are known: a-1 .. b-2, or to N-1 on the last block.
-            for i in range(ulo, ue):
-                F = cb[i + ONE - ua] - cb[i + TWO - ua]
                 f[i] = F
-                if viscous and not coulomb:
-                    v1 = v[i] + F * inv_m[i] * P2[i] * inv_dt
-                    # viscous work = change of kinetic energy - trapezoidal spring work
-                    wv += 0.5 * m[i] * v1 * v1 - 0.5 * F * dub[i + ONE - ua]
-                else:
+                if stop_mode & STOP_ON_REST:
+                    n_moving += 1 if v1 != 0.0 else 0
+                left = ci
+                uo = uon
+                ui = un
+                vi = vn
+                dui = dun
+            right = 0.0
+            if right_wall:
+                right = contact_force(law, walls[3] + ui, walls[4], walls[5])
+            F = left - right
+            v1, w = sweep_second_half(viscous, vi, F, dui, m[ulast], inv_m[ulast], P2[ulast], inv_dt, h)
+            wv += w
+            u[ulast] = ui
+            v[ulast] = v1
+            f[ulast] = F
+            if stop_mode & STOP_ON_REST:
+                n_moving += 1 if v1 != 0.0 else 0
+            n_close = (n_change + n_net) >> 1
+            n_open = (n_change - n_net) >> 1
+        else:
+            for a in range(0, N, B):
+                b = min(a + B, N)
+                # Unsigned loop indices: a signed index from a non-zero start gets
+                # numba's negative-index wraparound test, which stops vectorisation
+                # (3x slower). Block-local offsets are written (i + j) - ua >= 0.
+                ua = np.uint64(a)
+                ub = np.uint64(b)
+                ulo = np.uint64(max(a - 1, 0))
+                ue = np.uint64(N if b == N else b - 1)
+                # Pass 1: first half kick and drift of granules [a, b).
+                for i in range(ua, ub):
+                    v1, w1, w2, code = kick(coulomb, i, v[i], f[i], inv_m, eta, eta_s, h)
+                    wc += w1
+                    n_stop += code & 1
+                    n_slip += (code >> 1) & 1
+                    if viscous:
+                        dui, v1, w2 = viscous_drift(v1, m[i], E[i], P1[i])
+                        u[i] += dui
+                        wv += w2
+                    else:
+                        u[i] += dt * v1
+                    v[i] = v1
+                # Walls: the left one acts on granule 0 (first block), the right
+                # one on granule N-1 (last block).
+                if a == 0:
+                    fl, fr = wall_forces(law, left_wall, 0, u, walls)
+                    cb[1] = fl
+                if b == N:
+                    fl, fr = wall_forces(law, 0, right_wall, u, walls)
+                    cb[b - a + 1] = fr
+                # Pass 2: contacts whose two granules are drifted, max(a-1, 0) .. b-2
+                # (vectorised; the event counts are reductions).
+                for i in range(ulo, ub - ONE):
+                    ci = contact_force(law, d0[i] + u[i] - u[i + ONE], k[i], n[i])
+                    cb[i + TWO - ua] = ci
+                    n_hard += 1 if ci >= fcap else 0  # an integer reduction: vectorises
+                    # closed = delta > 0, as in the sweep (not ci > 0, which differs
+                    # where the force underflows: delta < ~1e-216 for Hertz)
+                    now = closed(d0[i], u[i], u[i + ONE])
+                    was = active[i]
+                    n_close += now & (1 - was)
+                    n_open += was & (1 - now)
+                    active[i] = now
+                # Pass 3: net force and second half kick of the granules whose two
+                # contacts are known: a-1 .. b-2, or to N-1 on the last block.
+                for i in range(ulo, ue):
+                    F = cb[i + ONE - ua] - cb[i + TWO - ua]
+                    f[i] = F
                     v1, w1, w2, code = kick(coulomb, i, v[i], F, inv_m, eta, eta_s, h)
                     wc += w1
                     n_stop += code & 1
                     n_slip += (code >> 1) & 1
-                v[i] = v1
-                if stop_mode & STOP_ON_REST:
-                    n_moving += 1 if v1 != 0.0 else 0
-            # Carry the block's last contact (and displacement) to the next block.
-            cb[0] = cb[b - a]
-            if viscous and not coulomb:
-                dub[0] = dub[b - a]
+                    v[i] = v1
+                    if stop_mode & STOP_ON_REST:
+                        n_moving += 1 if v1 != 0.0 else 0
+                # Carry the block's last contact to the next block.
+                cb[0] = cb[b - a]
         if coulomb:
             ledger[0] -= wc
             counts[EV_STOP] += n_stop
@@ -260,7 +396,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode,
             if walls[3] + u[N - 1] >= olim[N]:
                 return step + 1, OVERLAPPED
         if stop_mode & STOP_ON_SEPARATION:
-            if watched_was == 1 and active[stop_contact] == 0:
+            if watched_was == 1 and contact_state(coulomb, active, stop_contact, d0, u) == 0:
                 return step + 1, SEPARATED
         if stop_mode & STOP_ON_REST:
             if n_moving == 0:
