@@ -451,7 +451,9 @@ def main():
     p.add_argument("--integrator", default="nve/sphere", help="nve/sphere (default) or nve")
     p.add_argument("--setforce", action="store_true", help="add fix setforce NULL 0 0 (y, z frozen)")
     p.add_argument("--no-ours", action="store_true")
-    p.add_argument("--ours-python", default="/work/venv/bin/python")
+    p.add_argument("--ours-python", default=os.environ.get("GRANULAR_CHAIN_PYTHON", "python3"),
+                   help="python of the environment where granular_chain is installed "
+                   "(default: $GRANULAR_CHAIN_PYTHON, else python3)")
     p.add_argument("--repo", default=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     p.add_argument("--out", help="also write the JSON here")
     a = p.parse_args()
