@@ -155,6 +155,21 @@ def sweep_second_half(viscous, v, F, du, m, inv_m, P2, inv_dt, h):
 
 
 @numba.njit(inline="always", cache=True)
+def sweep_finish(viscous, stop_mode, i, ui, vi, F, dui, u, v, f, m, inv_m, P2, inv_dt, h):
+    """Second half of granule i's step under net force F, stored: u[i], v[i], f[i].
+    Returns (w_viscous, 1 if it moves and the run stops at rest else 0); the same
+    for the sweep's loop and its peeled last granule."""
+    v1, w = sweep_second_half(viscous, vi, F, dui, m, inv_m, P2, inv_dt, h)
+    u[i] = ui
+    v[i] = v1
+    f[i] = F
+    moving = 0
+    if stop_mode & STOP_ON_REST:
+        moving = 1 if v1 != 0.0 else 0
+    return w, moving
+
+
+@numba.njit(inline="always", cache=True)
 def contact_state(coulomb, active, j, d0, u):
     """1 if contact j is closed: the events array of the blocked passes (Coulomb
     scenes), or the overlap's sign (the sweep keeps no events array)."""
@@ -289,16 +304,11 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                 now = closed(d0i, ui, un)
                 n_change += now ^ was
                 n_net += now - was
-                F = left - ci
-                v1, w = sweep_second_half(viscous, vi, F, dui, param(uniform, m, m0, i),
-                                          param(uniform, inv_m, im0, i), param(uniform, P2, P20, i),
-                                          inv_dt, h)
+                w, mv = sweep_finish(viscous, stop_mode, i, ui, vi, left - ci, dui, u, v, f,
+                                     param(uniform, m, m0, i), param(uniform, inv_m, im0, i),
+                                     param(uniform, P2, P20, i), inv_dt, h)
                 wv += w
-                u[i] = ui
-                v[i] = v1
-                f[i] = F
-                if stop_mode & STOP_ON_REST:
-                    n_moving += 1 if v1 != 0.0 else 0
+                n_moving += mv
                 left = ci
                 uo = uon
                 ui = un
@@ -307,14 +317,10 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             right = 0.0
             if right_wall:
                 right = contact_force(law, walls[3] + ui, walls[4], walls[5])
-            F = left - right
-            v1, w = sweep_second_half(viscous, vi, F, dui, m[ulast], inv_m[ulast], P2[ulast], inv_dt, h)
+            w, mv = sweep_finish(viscous, stop_mode, ulast, ui, vi, left - right, dui, u, v, f,
+                                 m[ulast], inv_m[ulast], P2[ulast], inv_dt, h)
             wv += w
-            u[ulast] = ui
-            v[ulast] = v1
-            f[ulast] = F
-            if stop_mode & STOP_ON_REST:
-                n_moving += 1 if v1 != 0.0 else 0
+            n_moving += mv
             n_close = (n_change + n_net) >> 1
             n_open = (n_change - n_net) >> 1
         else:
