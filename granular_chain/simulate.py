@@ -215,9 +215,10 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     t_now = 0.0
     start = time.perf_counter()
     args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
-            int(feat.right_wall), stop_mode, _uniform_code(model, feat, E, P1, P2), u, v, f, active, model.d0, model.k,
-            model.n, model.walls, model.mass, model.inv_mass, model.eta,
-            model.eta_static, E, P1, P2, dt, 0, stop_contact, ledger, counts,
+            int(feat.right_wall), stop_mode, _uniform_code(model, feat, E, P1, P2),
+            u, v, f, active, model.d0, model.k, model.n, model.walls, model.mass,
+            model.inv_mass, model.eta, model.eta_static, E, P1, P2, dt, 0, stop_contact,
+            ledger, counts,
             *_overlap_caps(model)]
     kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5, 6))
     n_steps_at = _KERNEL_ARGS.index("n_steps")
