@@ -16,6 +16,10 @@ import granular_chain as gc
 from granular_chain.cli import main
 
 EXAMPLES = 60
+# A relative ledger error needs an energy with all its digits: a speed of 1e-161
+# has a kinetic energy of 1e-322, a subnormal with two significant digits
+# (hypothesis found a 3.8 % "error" there that is only that rounding).
+NORMAL_ENERGY = 1e-290
 
 
 @st.composite
@@ -60,7 +64,7 @@ def test_valid_scenes_run_and_balance_their_energy(data):
     # default dt = 1/200 of the shortest contact time: the ledger closes to
     # O(dt^2) ~ 1e-4 of the initial energy at worst (measured over the examples).
     e0 = r.energy.initial
-    if e0 > 0:
+    if e0 > NORMAL_ENERGY:
         assert r.energy.balance_error < 2e-3, (r.energy.balance_error, data)
     assert np.all(np.diff(r.x, axis=1) > 0)  # granules never pass each other
 
@@ -90,7 +94,7 @@ def test_valid_scenes_with_the_event_stepper(data):
             assert "time scale of the scene is too short" in r.message
         assert r.message
         return
-    if r.energy.initial > 0:
+    if r.energy.initial > NORMAL_ENERGY:
         # Measured over 1000 examples: at most 1.2e-8 (a granule whose drag
         # takes its energy down by e^-96 over the run; the ledger is a sum of
         # per-step integrals at rtol 1e-12).
