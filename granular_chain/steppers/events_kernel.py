@@ -521,7 +521,7 @@ def _try_jump(law, coulomb, st, ist, u, v, dl, closed, present, csl, kc, mass, g
     T = (st[S_TEND] - st[S_T]) - st[S_TLO]
     if disc > 0.0:
         sq = math.sqrt(disc)
-        lp = -2.0 * K / (c + sq)  # 0.5 (-c + sq) without cancellation (c^2 >> K)
+        lp = -EM.slow_rate(K, 0.5 * c, 0.5 * sq)  # sq = 2 kap
         lm = 0.5 * (-c - sq)
         A = (w0 - lm * d0) / (lp - lm)
         B = d0 - A

@@ -186,6 +186,14 @@ def _csa(p, th, tl):
     return A, A * (th + tl), E
 
 
+@numba.njit(inline="always", cache=True, error_model="numpy")
+def slow_rate(K, half_c, kap):
+    """Slow decay rate of an overdamped mode, c/2 - sqrt(c^2/4 - K), written as
+    K / (c/2 + kap) (kap = sqrt(c^2/4 - K)): the difference form cancels to nothing
+    when c^2 >> K (gamma = 1e6: 12 digits lost)."""
+    return K / (half_c + kap)
+
+
 @numba.njit(cache=True, error_model="numpy")
 def state(p, th, tl):
     """delta, w = delta', v0, v1, du0, du1 at tau = th + tl from the mode start.
@@ -255,7 +263,7 @@ def state(p, th, tl):
         # digits (1e-4 relative in v at gamma = 1e6); here at most a factor 2
         # (kap > c/4), while for kap <= c/4 the cosh/sinh form loses as little.
         s_ = kap + 0.5 * c
-        r1 = -K / s_
+        r1 = -slow_rate(K, 0.5 * c, kap)
         r2 = -s_
         e1 = math.exp(r1 * tau)
         e2 = math.exp(r2 * tau)
@@ -327,7 +335,7 @@ def g_event(p, kind, th, tl):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _bisect_up(p, kind, lo, hi):
+def _root_in_bracket(p, kind, lo, hi):
     """Root of g on [lo, hi] with g(lo) < 0 <= g(hi), to an ulp, as (th, tl).
 
     Newton's method kept inside the bracket (a bisection step whenever a Newton
@@ -394,8 +402,7 @@ def slow_sample_step(p):
     fast = sample_step(p)
     if p[P_DH] > 0.0:
         return fast
-    lam = p[P_K] / (0.5 * p[P_C] + abs(p[P_OH]))
-    return max(fast, 0.25 / lam)
+    return max(fast, 0.25 / slow_rate(p[P_K], 0.5 * p[P_C], abs(p[P_OH])))
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -482,11 +489,10 @@ def _acc_roundoff(p):
 def first_root(p, kind, lo, hi, nsamp):
     """First tau in [lo, hi] where g_event(kind) reaches 0 from below, as (th, tl).
 
-    Sampling at ``nsamp`` points with the derivative: a sign change is bisected
-    to 2 ulps; an interior maximum between two samples (g' from + to -) is
+    Sampling at ``nsamp`` points with the derivative: a sign change is located
+    to an ulp (:func:`_root_in_bracket`); an interior maximum between two samples (g' from + to -) is
     located on g' and checked, so a grazing dip between samples is not missed
-    (the same rule as the Taylor path's polynomial roots). Then one Newton
-    step on the double-double tau. ``lo`` is 0 (the mode's start) or the end
+    (the same rule as the Taylor path's polynomial roots). ``lo`` is 0 (the mode's start) or the end
     of a window already searched (g < 0 there).
     """
     ga, da = g_event2(p, kind, lo, 0.0)
@@ -518,13 +524,13 @@ def first_root(p, kind, lo, hi, nsamp):
                 if not found:
                     return a, 0.0
                 a = a + x
-            return _bisect_up(p, kind, a, b)
+            return _root_in_bracket(p, kind, a, b)
         if da > 0.0 and db < 0.0:
             xm = _max_of(p, kind, a, b)
             if g_event(p, kind, xm, 0.0) >= 0.0:
                 if ga == 0.0:
                     return xm, 0.0
-                return _bisect_up(p, kind, a, xm)
+                return _root_in_bracket(p, kind, a, xm)
         a = b
         ga = gb
         da = db
