@@ -101,15 +101,6 @@ EV_CLOSE, EV_OPEN, EV_STOP, EV_SLIP = 0, 1, 2, 3
 EVENT_KINDS = ("contact_close", "contact_open", "stop", "slip")
 
 
-@numba.njit(inline="always", cache=True)
-def kick(coulomb, i, v, F, inv_m, eta, eta_s, h):
-    """Kick of granule i: (v_new, w_coulomb, 0, code), the law chosen at compile time."""
-    if coulomb:
-        return coulomb_kick(v, F, eta[i], eta_s[i], inv_m[i], h)
-    else:
-        return free_kick(v, F, inv_m[i], h)
-
-
 # The sweep's two halves of a step for one granule (scenes without Coulomb
 # friction). Written without a compound test on the feature codes: a test like
 # ``viscous and not coulomb`` inside an inlined function is not pruned at
@@ -335,7 +326,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                 ue = np.uint64(N if b == N else b - 1)
                 # Pass 1: first half kick and drift of granules [a, b).
                 for i in range(ua, ub):
-                    v1, w1, w2, code = kick(coulomb, i, v[i], f[i], inv_m, eta, eta_s, h)
+                    # (the blocked passes run only with Coulomb friction: the sweep takes the rest)
+                    v1, w1, w2, code = coulomb_kick(v[i], f[i], eta[i], eta_s[i], inv_m[i], h)
                     wc += w1
                     n_stop += code & 1
                     n_slip += (code >> 1) & 1
@@ -372,7 +364,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                 for i in range(ulo, ue):
                     F = cb[i + ONE - ua] - cb[i + TWO - ua]
                     f[i] = F
-                    v1, w1, w2, code = kick(coulomb, i, v[i], F, inv_m, eta, eta_s, h)
+                    v1, w1, w2, code = coulomb_kick(v[i], F, eta[i], eta_s[i], inv_m[i], h)
                     wc += w1
                     n_stop += code & 1
                     n_slip += (code >> 1) & 1
