@@ -72,6 +72,31 @@ def measure(grains, steps, features, stepper="verlet", initial="struck"):
     return out
 
 
+def case_grid(cases, selected, grains, grain_steps, min_steps):
+    """(features, initial, N, steps) for every case (a (features, initial) pair, kept
+    if ``selected`` is None or names it as "features initial") and every N: about
+    ``grain_steps`` grain-steps per run, at least ``min_steps`` steps, and at most
+    1000 for random starts (such a chain comes to rest by t ~ 100, and a chain at
+    rest is the cheap case)."""
+    for features, initial in cases:
+        if selected is not None and f"{features} {initial}" not in selected:
+            continue
+        for N in (int(n) for n in grains):
+            steps = max(min_steps, int(grain_steps // N))
+            if initial == "random":
+                steps = min(steps, 1000)
+            yield features, initial, N, steps
+
+
+def emit(row: dict, path=None) -> None:
+    """Print a result row as one JSON line, and append it to ``path`` if given."""
+    line = json.dumps(row)
+    print(line, flush=True)
+    if path:
+        with open(path, "a") as fh:
+            fh.write(line + "\n")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--grains", type=int, default=10000)

@@ -116,43 +116,36 @@ def main():
     p.add_argument("--per-granule", action="store_true",
                    help="vary masses and stiffnesses by +-0.1 %% (non-uniform parameters)")
     a = p.parse_args()
-    cases = [c for c in CASES if a.cases is None or f"{c[0]} {c[1]}" in a.cases]
-    for features, initial in cases:
-        for N in (int(n) for n in a.grains):
-            steps = max(10, int(a.grain_steps // N))
-            if initial == "random":
-                steps = min(steps, 1000)
-            named = build_args(N, features, initial, per_granule=a.per_granule)
-            saved = {name: named[name].copy() for name in STATE}
-            kernels = {}
-            if a.blocks:
-                for B in a.blocks:
-                    verlet.BLOCK = B
-                    # a fresh dispatcher: recompiled with this BLOCK, no disk cache
-                    fresh = numba.njit(fastmath={"reassoc", "contract", "nsz"})(verlet.verlet_chunk.py_func)
-                    kernels[f"B={B}"] = bind(fresh, named)
-                    timed(kernels[f"B={B}"], named, saved, 1)
-                verlet.BLOCK = a.blocks[0]
-            else:
-                old = load_old(a.old)
-                kernels["old"] = bind(old.verlet_chunk, named)
-                kernels["new"] = bind(verlet.verlet_chunk, named)
-                for k in kernels.values():
-                    timed(k, named, saved, 1)
-            best = {k: float("inf") for k in kernels}
-            loads = [os.getloadavg()[0]]
-            for _ in range(a.repeat):
-                for name, k in kernels.items():
-                    best[name] = min(best[name], timed(k, named, saved, steps))
-            loads.append(os.getloadavg()[0])
-            row = {"case": f"{features} {initial}" + (" per-granule" if a.per_granule else ""),
-                   "grains": N, "steps": steps, "uniform": named["uniform"],
-                   "load_min": min(loads), "load_max": max(loads)}
-            row.update({name: N * steps / t / 1e6 for name, t in best.items()})
-            print(json.dumps(row), flush=True)
-            if a.json:
-                with open(a.json, "a") as fh:
-                    fh.write(json.dumps(row) + "\n")
+    for features, initial, N, steps in throughput.case_grid(CASES, a.cases, a.grains,
+                                                            a.grain_steps, 10):
+        named = build_args(N, features, initial, per_granule=a.per_granule)
+        saved = {name: named[name].copy() for name in STATE}
+        kernels = {}
+        if a.blocks:
+            for B in a.blocks:
+                verlet.BLOCK = B
+                # a fresh dispatcher: recompiled with this BLOCK, no disk cache
+                fresh = numba.njit(fastmath={"reassoc", "contract", "nsz"})(verlet.verlet_chunk.py_func)
+                kernels[f"B={B}"] = bind(fresh, named)
+                timed(kernels[f"B={B}"], named, saved, 1)
+            verlet.BLOCK = a.blocks[0]
+        else:
+            old = load_old(a.old)
+            kernels["old"] = bind(old.verlet_chunk, named)
+            kernels["new"] = bind(verlet.verlet_chunk, named)
+            for k in kernels.values():
+                timed(k, named, saved, 1)
+        best = {k: float("inf") for k in kernels}
+        loads = [os.getloadavg()[0]]
+        for _ in range(a.repeat):
+            for name, k in kernels.items():
+                best[name] = min(best[name], timed(k, named, saved, steps))
+        loads.append(os.getloadavg()[0])
+        row = {"case": f"{features} {initial}" + (" per-granule" if a.per_granule else ""),
+               "grains": N, "steps": steps, "uniform": named["uniform"],
+               "load_min": min(loads), "load_max": max(loads)}
+        row.update({name: N * steps / t / 1e6 for name, t in best.items()})
+        throughput.emit(row, a.json)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,8 @@ import subprocess
 import sys
 import tempfile
 
+import throughput  # case_grid, emit (this script's directory is on sys.path)
+
 WORKER = r"""
 import json, os, sys
 sys.path = [p for p in sys.path if p != ""]
@@ -74,33 +76,26 @@ def main():
         workers = {f"B={b}": Worker(a.new, b) for b in a.blocks}
     else:
         workers = {"old": Worker(a.old), "new": Worker(a.new)}
-    cases = [c for c in CASES if a.cases is None or f"{c[0]} {c[1]}" in a.cases]
-    for features, initial in cases:
-        for N in (int(n) for n in a.grains):
-            steps = max(20, int(a.grain_steps // N))
-            if initial == "random":
-                steps = min(steps, 1000)
-            best = {}
-            loads = [os.getloadavg()[0]]
-            for _ in range(a.repeat):
-                for s in (steps, 2 * steps):
-                    for name, w in workers.items():
-                        out = w.measure(grains=N, steps=s, features=features, initial=initial)
-                        key = (name, s)
-                        if key not in best or out["seconds"] < best[key]["seconds"]:
-                            best[key] = out
-                loads.append(os.getloadavg()[0])
-            row = {"case": f"{features} {initial}", "grains": N, "steps": steps,
-                   "load_min": min(loads), "load_max": max(loads)}
-            for name in workers:
-                t1, t2 = best[(name, steps)]["seconds"], best[(name, 2 * steps)]["seconds"]
-                row[name] = N * steps / max(t2 - t1, 1e-12) / 1e6
-                row[name + "_end_to_end"] = N * 2 * steps / t2 / 1e6
-                row[name + "_balance"] = best[(name, 2 * steps)]["energy_balance_error"]
-            print(json.dumps(row), flush=True)
-            if a.json:
-                with open(a.json, "a") as fh:
-                    fh.write(json.dumps(row) + "\n")
+    for features, initial, N, steps in throughput.case_grid(CASES, a.cases, a.grains,
+                                                            a.grain_steps, 20):
+        best = {}
+        loads = [os.getloadavg()[0]]
+        for _ in range(a.repeat):
+            for s in (steps, 2 * steps):
+                for name, w in workers.items():
+                    out = w.measure(grains=N, steps=s, features=features, initial=initial)
+                    key = (name, s)
+                    if key not in best or out["seconds"] < best[key]["seconds"]:
+                        best[key] = out
+            loads.append(os.getloadavg()[0])
+        row = {"case": f"{features} {initial}", "grains": N, "steps": steps,
+               "load_min": min(loads), "load_max": max(loads)}
+        for name in workers:
+            t1, t2 = best[(name, steps)]["seconds"], best[(name, 2 * steps)]["seconds"]
+            row[name] = N * steps / max(t2 - t1, 1e-12) / 1e6
+            row[name + "_end_to_end"] = N * 2 * steps / t2 / 1e6
+            row[name + "_balance"] = best[(name, 2 * steps)]["energy_balance_error"]
+        throughput.emit(row, a.json)
     for w in workers.values():
         w.close()
 
