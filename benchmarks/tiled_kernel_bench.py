@@ -75,7 +75,7 @@ def build_args(N, features, initial, seed=1, per_granule=False):
                 uniform=sim._uniform_code(model, feat, E, P1, P2),
                 u=u, v=v, f=f, c=c, active=active, d0=model.d0, k=model.k, n=model.n,
                 walls=model.walls, m=model.mass, inv_m=model.inv_mass, eta=model.eta,
-                eta_s=model.eta_static, E=E, P1=P1, P2=P2, du=np.zeros(N), dt=dt, n_steps=0,
+                eta_s=model.eta_static, E=E, P1=P1, P2=P2, du=np.zeros(N), dt=dt, n_steps=0, opening=1,
                 stop_contact=0, ledger=np.zeros(2), counts=np.zeros(4, dtype=np.int64),
                 olim=olim, fcap=fcap)
 

@@ -201,6 +201,12 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     E, P1, P2 = _drift_coefficients(model, dt)
     ledger = np.zeros(2)
     counts = np.zeros(4, dtype=np.int64)
+    # With merged kicks v holds half-step velocities between chunks; vs gets the
+    # synchronised ones for the frames, and sync the half kick's work and counts
+    # that the ledger and the counts lack at the frame's time.
+    merged = bool(verlet.merges_kicks(int(feat.coulomb), stop_mode))
+    vs = np.empty(N) if merged else v
+    sync = (0.0, 0, 0)
 
     limits = _overlap_limits(model)
     frames = _Frames()
@@ -217,24 +223,29 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
             int(feat.right_wall), stop_mode, _uniform_code(model, feat, E, P1, P2),
             u, v, f, active, model.d0, model.k, model.n, model.walls, model.mass,
-            model.inv_mass, model.eta, model.eta_static, E, P1, P2, dt, 0, stop_contact,
+            model.inv_mass, model.eta, model.eta_static, E, P1, P2, dt, 0, 1, stop_contact,
             ledger, counts,
             *_overlap_caps(model)]
     kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5, 6))
     n_steps_at = _KERNEL_ARGS.index("n_steps")
+    opening_at = _KERNEL_ARGS.index("opening")
     try:
         while steps < n_total:
             args[n_steps_at] = min(every, n_total - steps)
             taken, code = kernel(*args)
             if taken == 0:  # a chunk always advances; guard against an endless loop
                 raise RuntimeError("internal error: the Verlet kernel took no step")
+            args[opening_at] = 0
+            if merged:
+                sync = verlet.synchronise(v, f, model.eta, model.eta_static, model.inv_mass,
+                                          0.5 * dt, vs)
             steps += taken
             t_now = steps * dt
             if bar is not None:
                 bar.update(taken)
                 bar.set_postfix_str(f"t = {t_now:.4g} / {t_end:g}", refresh=False)
-            if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
-                bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(v)))[0])
+            if not (np.all(np.isfinite(u)) and np.all(np.isfinite(vs))):
+                bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(vs)))[0])
                 status = Status.NONFINITE
                 message = (f"non-finite state by t = {t_now:.6g} at granule {bad}: the step "
                            f"dt = {dt:g} is likely too large for the stiffest contact "
@@ -256,8 +267,9 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                     message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
                                 f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
                 break
-            ke, pe = model.energies(u, v)
-            balance = abs(ke + pe + ledger[0] + ledger[1] - e0)
+            ke, pe = model.energies(u, vs)
+            coulomb_work = ledger[0] - sync[0]
+            balance = abs(ke + pe + coulomb_work + ledger[1] - e0)
             if e0 > 0 and not balance <= _UNSTABLE_BALANCE * e0:
                 # A stable run balances its ledger to O(dt^2); an error as large
                 # as the initial energy itself means the integration blew up.
@@ -266,7 +278,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                            f"t = {t_now:.6g}: the integration is unstable; reduce run.dt "
                            f"(now {dt:g}; stiffest contact time {T:.4g})")
                 break
-            frames.record(t_now, model.x0 + u, v, f, ke, pe, ledger[0], ledger[1])
+            frames.record(t_now, model.x0 + u, vs, f, ke, pe, coulomb_work, ledger[1])
             if code != verlet.RAN_CHUNK:
                 break
         else:
@@ -281,6 +293,8 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
+    counts[verlet.EV_STOP] += sync[1]
+    counts[verlet.EV_SLIP] += sync[2]
     return _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
 
 

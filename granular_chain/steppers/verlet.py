@@ -53,7 +53,22 @@ granule:
   on the last block).
 
 A block's arrays stay in L1/L2 between the passes, so u, v, f and the
-parameters come from memory once per step. The contact forces live in a
+parameters come from memory once per step.
+
+*Merged kicks* (Coulomb scenes without a stop condition). The second half
+kick of step s and the first half kick of step s+1 act under the same frozen
+force f(t_(s+1)), and a kick is the exact flow of m dv/dt = F - eta sign(v)
+with stick at v = 0 (autonomous while F is frozen), so the two are one kick of
+dt: the same velocity, friction work and stop and slip counts (a kick stops at
+most once, and after slipping from rest it never stops), up to roundoff. Such
+runs therefore step the leapfrog form: pass 1 kicks by dt (by dt/2 on the
+run's first step, ``opening``) and drifts, pass 3 only forms the net force, so
+a step costs one Coulomb kick instead of two (1.4x faster in cache, measured).
+Between chunks v then holds the half-step velocity v(t + dt/2) of the
+granules' last kick; :func:`synchronise` kicks a copy by the remaining dt/2 for
+the output frame, so the trajectory does not depend on the output cadence.
+The separation and rest stops test the synchronised velocity at every step,
+so runs that watch them keep two half kicks per step. The contact forces live in a
 block-local buffer (the last one carried to the next block), never written to
 memory. Every pass stays a simple loop over a block with no loop-carried value
 except reductions, so each vectorises.
@@ -179,10 +194,51 @@ def closed(d0, ua, ub):
     return 1 if ua - ub > -d0 else 0
 
 
+@numba.njit(inline="always", cache=True)
+def merges_kicks(coulomb, stop_mode):
+    """Whether the kernel steps the leapfrog form with merged kicks (see the
+    module docstring): Coulomb scenes that watch no stop condition."""
+    return coulomb != 0 and stop_mode == 0
+
+
+@numba.njit(cache=True)
+def synchronise(v, f, eta, eta_s, inv_m, h, vs):
+    """The synchronised velocities of a merged-kick run: ``vs = v`` kicked by h
+    (dt/2) under the frozen forces f, v left as it is.
+
+    Parameters
+    ----------
+    v, f : ndarray, shape (N,)
+        Half-step velocities v(t - dt/2) after the last kick and net spring forces at t.
+    eta, eta_s, inv_m : ndarray, shape (N,)
+        Kinetic friction force, static threshold, 1/mass.
+    h : float
+        dt/2.
+    vs : ndarray, shape (N,)
+        Out: velocities at t.
+
+    Returns
+    -------
+    (work, stops, slips) : (float, int, int)
+        Coulomb work of the half kick (<= 0) and its stop and slip counts: what the
+        ledger and the counts lack at t.
+    """
+    w = 0.0
+    n_stop = 0
+    n_slip = 0
+    for i in range(v.size):
+        v1, w1, w2, code = coulomb_kick(v[i], f[i], eta[i], eta_s[i], inv_m[i], h)
+        vs[i] = v1
+        w += w1
+        n_stop += code & 1
+        n_slip += (code >> 1) & 1
+    return w, n_stop, n_slip
+
+
 @numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
 def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform,
                  u, v, f, active, d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2,
-                 dt, n_steps, stop_contact, ledger, counts, olim, fcap):
+                 dt, n_steps, opening, stop_contact, ledger, counts, olim, fcap):
     """Advance the state by up to ``n_steps`` velocity-Verlet steps, in place.
 
     Parameters
@@ -194,7 +250,9 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         every contact the same d0, k, n, so that the sweep reads element 0 once;
         the blocked passes ignore it).
     u, v, f : ndarray, shape (N,)
-        Displacements, velocities and net spring forces (f consistent with u on entry).
+        Displacements, velocities and net spring forces (f consistent with u on
+        entry). With merged kicks (:func:`merges_kicks`) v holds, between chunks,
+        the half-step velocities of the last kick (see :func:`synchronise`).
     active : ndarray of uint8, shape (max(N-1, 1),)
         1 where the contact is closed (delta > 0); updated by the blocked passes
         (Coulomb scenes) for event counting; the sweep neither reads nor updates it.
@@ -206,6 +264,10 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         Time step.
     n_steps : int
         Steps to take at most.
+    opening : int
+        1 on the run's first chunk: v holds the initial (synchronised)
+        velocities, so a merged-kick run opens with a kick of dt/2. Ignored
+        without merged kicks.
     stop_contact : int
         Contact watched by ``stop_mode`` bit 1.
     ledger : ndarray, shape (2,)
@@ -248,6 +310,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     # empty for a single granule).
     m0, im0, E0, P10, P20 = m[0], inv_m[0], E[0], P1[0], P2[0]
     d00, k0, n0 = (d0[0], k[0], n[0]) if N > 1 else (0.0, 0.0, 0.0)
+    merged = merges_kicks(coulomb, stop_mode)
     for step in range(n_steps):
         wc = 0.0
         wv = 0.0
@@ -259,6 +322,9 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         n_hard = 0
         if stop_mode & STOP_ON_SEPARATION:
             watched_was = contact_state(coulomb, active, stop_contact, d0, u)
+        # Pass 1's kick: the first half of this step, and with merged kicks also
+        # the second half of the last step (not on the run's first step).
+        kd = dt if merged and not (opening and step == 0) else h
         if not coulomb:
             # One sweep: granule i+1's first half, contact i, granule i's second
             # half, so u, v, f stream from memory once per step. Granule i+1's new
@@ -324,10 +390,10 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                 ub = np.uint64(b)
                 ulo = np.uint64(max(a - 1, 0))
                 ue = np.uint64(N if b == N else b - 1)
-                # Pass 1: first half kick and drift of granules [a, b).
+                # Pass 1: kick (by kd) and drift of granules [a, b).
                 for i in range(ua, ub):
                     # (the blocked passes run only with Coulomb friction: the sweep takes the rest)
-                    v1, w1, w2, code = coulomb_kick(v[i], f[i], eta[i], eta_s[i], inv_m[i], h)
+                    v1, w1, w2, code = coulomb_kick(v[i], f[i], eta[i], eta_s[i], inv_m[i], kd)
                     wc += w1
                     n_stop += code & 1
                     n_slip += (code >> 1) & 1
@@ -359,18 +425,20 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                     n_close += now & (1 - was)
                     n_open += was & (1 - now)
                     active[i] = now
-                # Pass 3: net force and second half kick of the granules whose two
-                # contacts are known: a-1 .. b-2, or to N-1 on the last block.
+                # Pass 3: net force and (without merged kicks) second half kick of
+                # the granules whose two contacts are known: a-1 .. b-2, or to N-1
+                # on the last block.
                 for i in range(ulo, ue):
                     F = cb[i + ONE - ua] - cb[i + TWO - ua]
                     f[i] = F
-                    v1, w1, w2, code = coulomb_kick(v[i], F, eta[i], eta_s[i], inv_m[i], h)
-                    wc += w1
-                    n_stop += code & 1
-                    n_slip += (code >> 1) & 1
-                    v[i] = v1
-                    if stop_mode & STOP_ON_REST:
-                        n_moving += 1 if v1 != 0.0 else 0
+                    if not merged:
+                        v1, w1, w2, code = coulomb_kick(v[i], F, eta[i], eta_s[i], inv_m[i], h)
+                        wc += w1
+                        n_stop += code & 1
+                        n_slip += (code >> 1) & 1
+                        v[i] = v1
+                        if stop_mode & STOP_ON_REST:
+                            n_moving += 1 if v1 != 0.0 else 0
                 # Carry the block's last contact to the next block.
                 cb[0] = cb[b - a]
         if coulomb:
