@@ -301,14 +301,20 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
 
 
 def _uniform_code(model: Model, feat, E, P1, P2) -> int:
-    """Kernel feature code: 1 when every granule has the same parameters and every
-    contact the same (d0, k, n), so the single sweep reads scalars and streams only
-    u, v, f. Only the sweep (scenes without Coulomb friction) uses it; 0 otherwise,
-    so that Coulomb scenes do not compile a second, identical specialisation."""
+    """Kernel feature code: verlet.UNIFORM when every granule has the same
+    parameters and every contact the same (d0, k, n), so the single sweep reads
+    scalars and streams only u, v, f; verlet.UNIT when moreover m = k = 1 and
+    d0 = 0 (the scaled touching chain), compiled in as constants. Only the sweep
+    (scenes without Coulomb friction) uses it; PER_GRANULE otherwise, so that
+    Coulomb scenes do not compile a second, identical specialisation."""
     if feat.coulomb:
-        return 0
+        return verlet.PER_GRANULE
     arrays = (model.mass, model.inv_mass, E, P1, P2, model.d0, model.k, model.n)
-    return int(all(a.size == 0 or bool(np.all(a == a[0])) for a in arrays))
+    if not all(a.size == 0 or bool(np.all(a == a[0])) for a in arrays):
+        return verlet.PER_GRANULE
+    unit = all(a.size == 0 or a[0] == value
+               for a, value in ((model.mass, 1.0), (model.k, 1.0), (model.d0, 0.0)))
+    return verlet.UNIT if unit and model.count > 1 else verlet.UNIFORM
 
 
 def _overlap_limits(model: Model):

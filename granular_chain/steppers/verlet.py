@@ -35,7 +35,10 @@ vectorises the sweep as a first-order recurrence (vsqrtpd in its code). When
 every granule has the same parameters and every contact the same (d0, k, n)
 (feature code ``uniform``), the parameters are read once as scalars and the
 sweep streams only u, v, f: 48 B per grain-step, against 72 B with per-granule
-parameters.
+parameters. The paper's scaled chain, m = 1 and k = 1 on touching granules
+(d0 = 0; feature code ``UNIT``), compiles them in as constants: the multiply by
+k, the add of d0 and the mass factors are left out (11-12 % in cache, measured),
+and since x * 1 and x + 0 are exact the results are bit-identical to ``UNIFORM``.
 
 *Scenes with Coulomb friction* take **three cache-blocked passes**: (1) first
 kick + drift, (2) contact forces and contact events, (3) net force + second
@@ -106,6 +109,11 @@ RAN_CHUNK = 0
 SEPARATED = 1
 AT_REST = 2
 OVERLAPPED = 3  # an overlap reached the sum of the radii (the centres met)
+
+# Values of the ``uniform`` feature code.
+PER_GRANULE = 0
+UNIFORM = 1  # one value of each parameter, read once as a scalar
+UNIT = 2  # uniform with m = 1, k = 1, d0 = 0 (the scaled touching chain): constants
 
 # Stop-mode bits.
 STOP_ON_SEPARATION = 1
@@ -246,8 +254,9 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform : int
         Compile-time feature codes (``stop_mode``: bit 1 = stop at the opening
         of ``stop_contact``, bit 2 = stop when every granule is at rest;
-        ``uniform``: 1 when every granule has the same m, inv_m, E, P1, P2 and
-        every contact the same d0, k, n, so that the sweep reads element 0 once;
+        ``uniform``: UNIFORM when every granule has the same m, inv_m, E, P1, P2
+        and every contact the same d0, k, n, so that the sweep reads element 0
+        once; UNIT when moreover m = k = 1 and d0 = 0, compiled in as constants;
         the blocked passes ignore it).
     u, v, f : ndarray, shape (N,)
         Displacements, velocities and net spring forces (f consistent with u on
@@ -310,6 +319,9 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     # empty for a single granule).
     m0, im0, E0, P10, P20 = m[0], inv_m[0], E[0], P1[0], P2[0]
     d00, k0, n0 = (d0[0], k[0], n[0]) if N > 1 else (0.0, 0.0, 0.0)
+    if uniform == UNIT:
+        # Constants, so that the compiler drops the operations they make exact.
+        m0, im0, d00, k0 = 1.0, 1.0, 0.0, 1.0
     merged = merges_kicks(coulomb, stop_mode)
     for step in range(n_steps):
         wc = 0.0
