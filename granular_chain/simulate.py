@@ -252,7 +252,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                            f"(period or collision time {T:.4g}); reduce run.dt")
                 break
             if code == verlet.SEPARATED:
-                t_now = _backtrack_to_separation(model, u, v, f, ledger, stop_contact, dt, t_now)
+                t_now = _backtrack_to_separation(model, u, vs, f, ledger, stop_contact, dt, t_now)
                 status = Status.SEPARATED
                 message = (f"contact {stop_contact} opened at t = {t_now:.12g} (located "
                            f"inside the step by a second-order backtrack)")

@@ -1,10 +1,10 @@
-"""Merged kicks: Coulomb scenes without a stop condition step the leapfrog form
+"""Merged kicks: Coulomb scenes that do not stop at rest step the leapfrog form
 (one kick of dt per step instead of two of dt/2; granular_chain/steppers/verlet.py).
 
 A kick is the exact flow of m dv/dt = F - eta sign(v) (with stick) under a frozen
 force, so two half kicks and one whole kick are the same map up to roundoff. The
 checks: the merged run agrees with the same scene run with two half kicks per
-step (forced by a 'rest' stop that never triggers) to roundoff, with the same
+step (forced by a 'rest' stop that does not trigger) to roundoff, with the same
 stop, slip and contact counts and the same friction work; the output cadence
 does not change a merged trajectory at all (bitwise); and the synchronised
 velocities handed to the frames close the energy ledger.
@@ -36,11 +36,12 @@ def _chain(N, viscous, stop, every, seed=7, t_end=8.0):
         "output": {"every": every, "trajectory": False}})
 
 
-def test_only_coulomb_scenes_without_a_stop_merge_kicks():
+def test_only_coulomb_scenes_that_do_not_stop_at_rest_merge_kicks():
     assert verlet.merges_kicks(1, 0)
     assert not verlet.merges_kicks(0, 0)
     assert not verlet.merges_kicks(1, verlet.STOP_ON_REST)
-    assert not verlet.merges_kicks(1, verlet.STOP_ON_SEPARATION)
+    assert verlet.merges_kicks(1, verlet.STOP_ON_SEPARATION)
+    assert not verlet.merges_kicks(1, verlet.STOP_ON_REST | verlet.STOP_ON_SEPARATION)
 
 
 @pytest.mark.parametrize("viscous", [False, True], ids=["coulomb", "coulomb+viscous"])
@@ -90,3 +91,28 @@ def test_synchronised_frames_close_the_ledger():
             assert e.coulomb[-1] > 0.3 * e.initial  # Coulomb friction did real work
         assert np.max(balance[0]) < 3e-6
         assert np.max(np.abs(balance[0] - balance[1])) < 1e-12
+
+
+def test_separation_stop_with_merged_kicks():
+    # Two granules with kinetic friction (n = 2, the paper's problem): the run that
+    # stops at separation merges its kicks; adding a 'rest' stop (which does not
+    # trigger first) forces two half kicks. Same step, same backtracked time and
+    # state to roundoff.
+    def run(stop):
+        return gc.simulate(gc.scene_from_dict({
+            "granules": {"count": 2, "velocity": [1.0, 0.0],
+                         "friction": {"kinetic": [0.3, 0.1], "static": [0.35, 0.12]}},
+            "contacts": {"exponent": 2.0, "stiffness": 1.0},
+            "run": {"stepper": "verlet", "dt": 1e-3, "t_end": 50.0, "stop": stop}}),
+            progress=False)
+
+    merged, halves = run("separation"), run(["separation", "rest"])
+    assert merged.status == halves.status == gc.Status.SEPARATED
+    assert merged.steps == halves.steps
+    assert merged.event_counts == halves.event_counts
+    assert abs(merged.t_final - halves.t_final) < 1e-13
+    assert np.max(np.abs(merged.x_final - halves.x_final)) < 1e-13
+    assert np.max(np.abs(merged.v_final - halves.v_final)) < 1e-13
+    for name in ("kinetic", "potential", "coulomb"):
+        a, b = getattr(merged.energy, name), getattr(halves.energy, name)
+        assert np.max(np.abs(a - b)) < 1e-13, name

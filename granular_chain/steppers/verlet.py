@@ -61,7 +61,7 @@ block-local buffer (the last one carried to the next block), never written to
 memory. Every pass stays a simple loop over a block with no loop-carried value
 except reductions, so each vectorises.
 
-*Merged kicks* (Coulomb scenes without a stop condition). The second half
+*Merged kicks* (Coulomb scenes that do not stop at rest). The second half
 kick of step s and the first half kick of step s+1 act under the same frozen
 force f(t_(s+1)), and a kick is the exact flow of m dv/dt = F - eta sign(v)
 with stick at v = 0 (autonomous while F is frozen), so the two are one kick of
@@ -73,8 +73,9 @@ a step costs one Coulomb kick instead of two (1.4x faster in cache, measured).
 Between chunks (at time t) v then holds the half-step velocity v(t - dt/2) of the
 granules' last kick; :func:`synchronise` kicks a copy by the remaining dt/2 for
 the output frame, so the trajectory does not depend on the output cadence.
-The separation and rest stops test the synchronised velocity at every step,
-so runs that watch them keep two half kicks per step.
+The separation stop reads positions only, and the state it stops in is
+synchronised in the same way. The rest stop tests the synchronised velocity
+at every step, so runs that watch it keep two half kicks per step.
 
 A contact counts as closed when its overlap delta > 0 (the same test in both
 shapes, written so that the same displacements always give the same answer).
@@ -205,8 +206,8 @@ def closed(d0, ua, ub):
 @numba.njit(inline="always", cache=True)
 def merges_kicks(coulomb, stop_mode):
     """Whether the kernel steps the leapfrog form with merged kicks (see the
-    module docstring): Coulomb scenes that watch no stop condition."""
-    return coulomb != 0 and stop_mode == 0
+    module docstring): Coulomb scenes that do not stop at rest."""
+    return coulomb != 0 and (stop_mode & STOP_ON_REST) == 0
 
 
 @numba.njit(cache=True)
