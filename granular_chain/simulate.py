@@ -201,10 +201,11 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     E, P1, P2 = _drift_coefficients(model, dt)
     ledger = np.zeros(2)
     counts = np.zeros(4, dtype=np.int64)
-    # With merged kicks v holds half-step velocities between chunks; vs gets the
-    # synchronised ones for the frames, and sync the half kick's work and counts
-    # that the ledger and the counts lack at the frame's time.
-    merged = bool(verlet.merges_kicks(int(feat.coulomb), stop_mode))
+    # With Coulomb friction the kernel merges kicks (leapfrog form) and v holds
+    # half-step velocities between chunks; vs gets the synchronised ones for the
+    # frames, and sync the half kick's work and counts that the ledger and the
+    # counts lack at the frame's time.
+    merged = bool(feat.coulomb)
     vs = np.empty(N) if merged else v
     sync = (0.0, 0, 0)
 
@@ -239,6 +240,10 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
             if merged:
                 sync = verlet.synchronise(v, f, model.eta, model.eta_static, model.inv_mass,
                                           0.5 * dt, vs)
+                if stop_mode & verlet.STOP_ON_REST and code == verlet.RAN_CHUNK and not vs.any():
+                    # at rest at the chunk's end (the kernel reads rest off the kick
+                    # after the time it holds, i.e. the next chunk's first step)
+                    code = verlet.AT_REST
             steps += taken
             t_now = steps * dt
             if bar is not None:

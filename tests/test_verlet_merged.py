@@ -1,23 +1,28 @@
-"""Merged kicks: Coulomb scenes that do not stop at rest step the leapfrog form
-(one kick of dt per step instead of two of dt/2; granular_chain/steppers/verlet.py).
+"""Merged kicks: Coulomb scenes step the leapfrog form (one kick of dt per step
+instead of two of dt/2; granular_chain/steppers/verlet.py).
 
 A kick is the exact flow of m dv/dt = F - eta sign(v) (with stick) under a frozen
 force, so two half kicks and one whole kick are the same map up to roundoff. The
-checks: the merged run agrees with the same scene run with two half kicks per
-step (forced by a 'rest' stop that does not trigger) to roundoff, with the same
-stop, slip and contact counts and the same friction work; the output cadence
-does not change a merged trajectory at all (bitwise); and the synchronised
-velocities handed to the frames close the energy ledger.
+reference is a plain numpy velocity Verlet written from the scheme with two half
+kicks per step (kick, exact drag drift, force, kick; the kick transcribed from
+the law in granular_chain/laws/friction.py), so that the engine's merging, its
+synchronisation of the frames, its rest detection read off the merged kick and
+its separation backtrack are all checked against the unmerged scheme.
 """
+
+import importlib
 
 import numpy as np
 import pytest
 
 import granular_chain as gc
-from granular_chain.steppers import verlet
+from granular_chain.laws.friction import drift_tables
+from granular_chain.model import build_model
+
+sim = importlib.import_module("granular_chain.simulate")  # the package exports the function
 
 
-def _chain(N, viscous, stop, every, seed=7, t_end=8.0):
+def _chain(N, viscous, stop, every, seed=7, t_end=8.0, speed=0.05):
     rng = np.random.default_rng(seed)
     friction = {"kinetic": rng.uniform(0.0, 4e-3, N).tolist(),
                 "static": rng.uniform(4e-3, 6e-3, N).tolist()}
@@ -26,7 +31,7 @@ def _chain(N, viscous, stop, every, seed=7, t_end=8.0):
     granules = {"count": N, "mass": rng.uniform(0.5, 2.0, N).tolist(), "radius": 0.5,
                 "gap": rng.uniform(-0.01, 0.01, N - 1).tolist(),
                 # random velocities: granules stick, slip and reverse
-                "velocity": rng.uniform(-0.05, 0.05, N).tolist(), "friction": friction}
+                "velocity": rng.uniform(-speed, speed, N).tolist(), "friction": friction}
     return gc.scene_from_dict({
         "name": "merged", "granules": granules,
         "contacts": {"exponent": 2.5, "stiffness": rng.uniform(0.5, 2.0, N - 1).tolist()},
@@ -36,30 +41,100 @@ def _chain(N, viscous, stop, every, seed=7, t_end=8.0):
         "output": {"every": every, "trajectory": False}})
 
 
-def test_only_coulomb_scenes_that_do_not_stop_at_rest_merge_kicks():
-    assert verlet.merges_kicks(1, 0)
-    assert not verlet.merges_kicks(0, 0)
-    assert not verlet.merges_kicks(1, verlet.STOP_ON_REST)
-    assert verlet.merges_kicks(1, verlet.STOP_ON_SEPARATION)
-    assert not verlet.merges_kicks(1, verlet.STOP_ON_REST | verlet.STOP_ON_SEPARATION)
+def _half_kick(v, F, eta, eta_s, inv_m, h):
+    """Exact Coulomb stick/slip kick of duration h under frozen F, vectorised:
+    (v_new, work <= 0, stops, slips)."""
+    s = np.sign(v)
+    a = (F - eta * s) * inv_m
+    v1 = v + a * h
+    through = v1 * s > 0.0
+    t_stop = np.minimum(np.abs(v) / np.maximum(np.abs(a), 1e-300), h)
+    rem = h - t_stop
+    slip = np.abs(F) > eta_s
+    a2 = (F - eta * np.where(F > 0.0, 1.0, -1.0)) * inv_m
+    d1 = np.where(through, (v + 0.5 * a * h) * h * s, 0.5 * np.abs(v) * t_stop)
+    d2 = np.where(slip & ~through, 0.5 * np.abs(a2) * rem * rem, 0.0)
+    v_new = np.where(through, v1, np.where(slip, a2 * rem, 0.0))
+    stops = int(np.sum(~through & (s != 0.0)))
+    slips = int(np.sum(slip & ~through))
+    return v_new, -float(np.sum(eta * (d1 + d2))), stops, slips
+
+
+class _Reference:
+    """Two half kicks per step, numpy, whole chain at once."""
+
+    def __init__(self, model, dt):
+        self.model, self.dt = model, dt
+        N = model.count
+        self.E, self.P1, P2 = np.empty(N), np.empty(N), np.empty(N)
+        drift_tables(model.gamma / model.mass, dt, self.E, self.P1, P2)
+        self.u = np.zeros(N)
+        self.v = model.v0.copy()
+        self.F, self.closed = self.forces(self.u)
+        self.coulomb = self.viscous = 0.0
+        self.counts = dict(contact_close=0, contact_open=0, stop=0, slip=0)
+
+    def forces(self, u):
+        m = self.model
+        F = np.zeros(m.count)
+        delta = m.d0 + u[:-1] - u[1:]
+        fc = m.k * np.maximum(delta, 0.0) ** (m.n - 1.0)
+        F[:-1] -= fc
+        F[1:] += fc
+        w = m.walls
+        if m.features.left_wall:
+            F[0] += w[1] * max(w[0] - u[0], 0.0) ** (w[2] - 1.0)
+        if m.features.right_wall:
+            F[-1] -= w[4] * max(w[3] + u[-1], 0.0) ** (w[5] - 1.0)
+        return F, delta > 0.0
+
+    def kick(self):
+        m = self.model
+        self.v, w, stops, slips = _half_kick(self.v, self.F, m.eta, m.eta_static, m.inv_mass,
+                                             0.5 * self.dt)
+        self.coulomb -= w
+        self.counts["stop"] += stops
+        self.counts["slip"] += slips
+
+    def step(self):
+        m = self.model
+        self.kick()
+        self.u += self.v * self.P1
+        self.viscous += float(np.sum(0.5 * m.mass * self.v ** 2 * (1.0 - self.E ** 2)))
+        self.v = self.v * self.E
+        self.F, now = self.forces(self.u)
+        self.counts["contact_close"] += int(np.sum(now & ~self.closed))
+        self.counts["contact_open"] += int(np.sum(self.closed & ~now))
+        self.closed = now
+        self.kick()
 
 
 @pytest.mark.parametrize("viscous", [False, True], ids=["coulomb", "coulomb+viscous"])
 def test_merged_kicks_equal_two_half_kicks(viscous):
-    merged = gc.simulate(_chain(60, viscous, "t_end", 100), progress=False)
-    halves = gc.simulate(_chain(60, viscous, "rest", 100), progress=False)
-    assert merged.status == halves.status == gc.Status.T_END
-    assert merged.steps == halves.steps == 800
-    # the runs exercised what the merge has to get right
+    scene = _chain(60, viscous, "t_end", 100)
+    merged = gc.simulate(scene, progress=False)
+    ref = _Reference(build_model(scene), 0.01)
+    for _ in range(800):
+        ref.step()
+    assert merged.status == gc.Status.T_END and merged.steps == 800
+    # the run exercised what the merge has to get right
     assert merged.event_counts["stop"] > 50 and merged.event_counts["slip"] > 50
-    assert merged.event_counts == halves.event_counts
-    # same map up to roundoff: the two trajectories differ by rounding only
-    # (O(1e-16) per step, grown over 800 steps of a nonlinear chain)
-    assert np.max(np.abs(merged.x - halves.x)) < 1e-12
-    assert np.max(np.abs(merged.v - halves.v)) < 1e-12
-    assert np.max(np.abs(merged.energy.coulomb - halves.energy.coulomb)) < 1e-14
-    if viscous:
-        assert np.max(np.abs(merged.energy.viscous - halves.energy.viscous)) < 1e-14
+    assert merged.event_counts == ref.counts
+    # same map up to roundoff (O(1e-16) per step, grown over 800 steps)
+    assert np.max(np.abs(merged.x_final - (ref.model.x0 + ref.u))) < 1e-12
+    assert np.max(np.abs(merged.v_final - ref.v)) < 1e-12
+    assert abs(merged.energy.coulomb[-1] - ref.coulomb) < 1e-14
+    assert abs(merged.energy.viscous[-1] - ref.viscous) < 1e-14
+    # the synchronised frames close the ledger as the unmerged scheme does: the
+    # O(dt^2) error of Verlet (about 2e-6 of the initial energy), not the
+    # O(eta v dt) a missing half kick would leave
+    e = merged.energy
+    balance = abs(e.kinetic[-1] + e.potential[-1] + e.coulomb[-1] + e.viscous[-1] - e.initial)
+    ke = 0.5 * float(np.sum(ref.model.mass * ref.v ** 2))
+    pe = ref.model.energies(ref.u, ref.v)[1]
+    ref_balance = abs(ke + pe + ref.coulomb + ref.viscous - e.initial)
+    assert balance < 3e-6 * e.initial and e.coulomb[-1] > 0.3 * e.initial
+    assert abs(balance - ref_balance) < 1e-12 * e.initial
 
 
 def test_merged_trajectory_does_not_depend_on_the_output_cadence():
@@ -75,44 +150,60 @@ def test_merged_trajectory_does_not_depend_on_the_output_cadence():
     assert every_step.event_counts == rare.event_counts
 
 
-def test_synchronised_frames_close_the_ledger():
-    # The frames of a merged run carry the synchronised velocities and the work of
-    # the half kick to the frame's time: their ledger balance is the two-half-kick
-    # run's (1.66e-6 and 2.06e-6 of the initial energy at dt = 0.01, the O(dt^2)
-    # error of Verlet), not the O(eta v dt) a missing half kick would leave.
-    for viscous in (False, True):
-        merged = gc.simulate(_chain(60, viscous, "t_end", 10), progress=False)
-        halves = gc.simulate(_chain(60, viscous, "rest", 10), progress=False)
-        balance = []
-        for r in (merged, halves):
-            e = r.energy
-            total = e.kinetic + e.potential + e.coulomb + e.viscous
-            balance.append(np.abs(total - e.initial) / e.initial)
-            assert e.coulomb[-1] > 0.3 * e.initial  # Coulomb friction did real work
-        assert np.max(balance[0]) < 3e-6
-        assert np.max(np.abs(balance[0] - balance[1])) < 1e-12
+def _rest_reference(scene, max_steps):
+    ref = _Reference(build_model(scene), 0.01)
+    for step in range(1, max_steps + 1):
+        ref.step()
+        if not ref.v.any():
+            return ref, step
+    raise AssertionError("the reference chain did not come to rest")
+
+
+def test_rest_stop_read_off_the_merged_kick():
+    # A chain that comes to rest: the engine reads rest off the next step's merged
+    # kick (mid-chunk) or off the synchronised velocities (at a chunk's end). Every
+    # output cadence must stop at the reference's first all-at-rest step, with the
+    # reference's state, counts and ledger.
+    scene = _chain(40, False, "rest", 1, t_end=200.0, speed=0.02)
+    ref, rest_step = _rest_reference(scene, 20000)
+    assert ref.counts["stop"] > 40
+    for every in (1, 7, rest_step, rest_step - 1, 1000):
+        scene = _chain(40, False, "rest", every, t_end=200.0, speed=0.02)
+        r = gc.simulate(scene, progress=False)
+        assert r.status == gc.Status.AT_REST, every
+        assert r.steps == rest_step, every
+        assert abs(r.t_final - rest_step * 0.01) < 1e-12
+        assert not r.v_final.any()
+        assert np.max(np.abs(r.x_final - (ref.model.x0 + ref.u))) < 1e-12
+        assert r.event_counts == ref.counts, every
+        assert abs(r.energy.coulomb[-1] - ref.coulomb) < 1e-14
 
 
 def test_separation_stop_with_merged_kicks():
-    # Two granules with kinetic friction (n = 2, the paper's problem): the run that
-    # stops at separation merges its kicks; adding a 'rest' stop (which does not
-    # trigger first) forces two half kicks. Same step, same backtracked time and
-    # state to roundoff.
-    def run(stop):
-        return gc.simulate(gc.scene_from_dict({
-            "granules": {"count": 2, "velocity": [1.0, 0.0],
-                         "friction": {"kinetic": [0.3, 0.1], "static": [0.35, 0.12]}},
-            "contacts": {"exponent": 2.0, "stiffness": 1.0},
-            "run": {"stepper": "verlet", "dt": 1e-3, "t_end": 50.0, "stop": stop}}),
-            progress=False)
-
-    merged, halves = run("separation"), run(["separation", "rest"])
-    assert merged.status == halves.status == gc.Status.SEPARATED
-    assert merged.steps == halves.steps
-    assert merged.event_counts == halves.event_counts
-    assert abs(merged.t_final - halves.t_final) < 1e-13
-    assert np.max(np.abs(merged.x_final - halves.x_final)) < 1e-13
-    assert np.max(np.abs(merged.v_final - halves.v_final)) < 1e-13
-    for name in ("kinetic", "potential", "coulomb"):
-        a, b = getattr(merged.energy, name), getattr(halves.energy, name)
-        assert np.max(np.abs(a - b)) < 1e-13, name
+    # Two granules with kinetic friction (n = 2, the paper's problem): the engine
+    # stops at the step where the contact opens and backtracks from the
+    # synchronised state; the same backtrack applied to the reference's state at
+    # that step gives the same time, state and ledger.
+    scene = gc.scene_from_dict({
+        "granules": {"count": 2, "velocity": [1.0, 0.0],
+                     "friction": {"kinetic": [0.3, 0.1], "static": [0.35, 0.12]}},
+        "contacts": {"exponent": 2.0, "stiffness": 1.0},
+        "run": {"stepper": "verlet", "dt": 1e-3, "t_end": 50.0, "stop": "separation"}})
+    r = gc.simulate(scene, progress=False)
+    model = build_model(scene)
+    ref = _Reference(model, 1e-3)
+    was_closed = False
+    for steps in range(1, 50_001):
+        ref.step()
+        if was_closed and not ref.closed[0]:
+            break
+        was_closed = bool(ref.closed[0])
+    ledger = np.array([ref.coulomb, ref.viscous])
+    t = sim._backtrack_to_separation(model, ref.u, ref.v, ref.F, ledger, 0, 1e-3, steps * 1e-3)
+    assert r.status == gc.Status.SEPARATED and r.steps == steps
+    assert r.event_counts["stop"] >= 1 and r.event_counts["slip"] >= 1
+    assert r.event_counts == ref.counts
+    assert abs(r.t_final - t) < 1e-13
+    assert np.max(np.abs(r.x_final - (model.x0 + ref.u))) < 1e-13
+    assert np.max(np.abs(r.v_final - ref.v)) < 1e-13
+    assert abs(r.energy.coulomb[-1] - ledger[0]) < 1e-13

@@ -111,6 +111,17 @@ def coulomb_kick(v, F, eta, eta_s, inv_m, h):
     return v_new, -eta * (d1 + d2), 0.0, code
 
 
+@numba.njit(inline="always", cache=True)
+def at_rest_by(v, v1, F, eta, inv_m, t):
+    """1 if a kick from velocity v under force F that ended at rest (v1 = 0) had
+    stopped by time t into it (|v| <= t |a| with a the sliding deceleration;
+    from rest, at once), else 0. A granule at rest by t stays so: v1 = 0 means
+    the spring could not beat the static threshold."""
+    s = (1.0 if v > 0.0 else 0.0) - (1.0 if v < 0.0 else 0.0)
+    a = (F - eta * s) * inv_m
+    return 1 if (v1 == 0.0 and abs(v) <= t * abs(a)) else 0
+
+
 @numba.njit(cache=True)
 def drift_tables(c, dt, E, P1, P2):
     """Per-granule drag coefficients for a step dt: exp(-c dt), phi1(c, dt), phi2(c, dt)."""

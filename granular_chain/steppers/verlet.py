@@ -61,21 +61,26 @@ block-local buffer (the last one carried to the next block), never written to
 memory. Every pass stays a simple loop over a block with no loop-carried value
 except reductions, so each vectorises.
 
-*Merged kicks* (Coulomb scenes that do not stop at rest). The second half
+*Merged kicks* (every Coulomb scene). The second half
 kick of step s and the first half kick of step s+1 act under the same frozen
 force f(t_(s+1)), and a kick is the exact flow of m dv/dt = F - eta sign(v)
 with stick at v = 0 (autonomous while F is frozen), so the two are one kick of
 dt: the same velocity, friction work and stop and slip counts (a kick stops at
-most once, and after slipping from rest it never stops), up to roundoff. Such
-runs therefore step the leapfrog form: pass 1 kicks by dt (by dt/2 on the
+most once, and after slipping from rest it never stops), up to roundoff. The
+blocked passes therefore step the leapfrog form: pass 1 kicks by dt (by dt/2 on the
 run's first step, ``opening``) and drifts, pass 3 only forms the net force, so
 a step costs one Coulomb kick instead of two (1.4x faster in cache, measured).
 Between chunks (at time t) v then holds the half-step velocity v(t - dt/2) of the
 granules' last kick; :func:`synchronise` kicks a copy by the remaining dt/2 for
 the output frame, so the trajectory does not depend on the output cadence.
 The separation stop reads positions only, and the state it stops in is
-synchronised in the same way. The rest stop tests the synchronised velocity
-at every step, so runs that watch it keep two half kicks per step.
+synchronised in the same way. The rest stop is read off the merged kick: the
+granule was at rest at the step's start time t when its kick ends at rest and
+it had stopped within the first dt/2 (:func:`granular_chain.laws.friction.at_rest_by`).
+When every granule was, the step just taken changed nothing (each drifted by
+zero) and the kernel returns at t, the step before it; simulate() tests the
+synchronised velocities at the chunk's end, which the next chunk's first step
+would otherwise report.
 
 A contact counts as closed when its overlap delta > 0 (the same test in both
 shapes, written so that the same displacements always give the same answer).
@@ -92,7 +97,7 @@ from numba import literally
 
 from ..forces import wall_forces
 from ..laws.contact import contact_force
-from ..laws.friction import coulomb_kick, free_kick, viscous_drift
+from ..laws.friction import at_rest_by, coulomb_kick, free_kick, viscous_drift
 
 # Granules per block of the tiled step (see the module docstring). Chains that
 # stream from memory take smaller blocks: BLOCK_LONG was 1.14-1.18x faster than
@@ -203,16 +208,9 @@ def closed(d0, ua, ub):
     return 1 if ua - ub > -d0 else 0
 
 
-@numba.njit(inline="always", cache=True)
-def merges_kicks(coulomb, stop_mode):
-    """Whether the kernel steps the leapfrog form with merged kicks (see the
-    module docstring): Coulomb scenes that do not stop at rest."""
-    return coulomb != 0 and (stop_mode & STOP_ON_REST) == 0
-
-
 @numba.njit(cache=True)
 def synchronise(v, f, eta, eta_s, inv_m, h, vs):
-    """The synchronised velocities of a merged-kick run: ``vs = v`` kicked by h
+    """The synchronised velocities of a Coulomb (merged-kick) run: ``vs = v`` kicked by h
     (dt/2) under the frozen forces f, v left as it is.
 
     Parameters
@@ -261,7 +259,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         the blocked passes ignore it).
     u, v, f : ndarray, shape (N,)
         Displacements, velocities and net spring forces (f consistent with u on
-        entry). With merged kicks (:func:`merges_kicks`) v holds, between chunks,
+        entry). With Coulomb friction (merged kicks) v holds, between chunks,
         the half-step velocities of the last kick (see :func:`synchronise`).
     active : ndarray of uint8, shape (max(N-1, 1),)
         1 where the contact is closed (delta > 0); updated by the blocked passes
@@ -276,8 +274,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         Steps to take at most.
     opening : int
         1 on the run's first chunk: v holds the initial (synchronised)
-        velocities, so a merged-kick run opens with a kick of dt/2. Ignored
-        without merged kicks.
+        velocities, so a Coulomb (merged-kick) run opens with a kick of dt/2.
+        Ignored without Coulomb friction.
     stop_contact : int
         Contact watched by ``stop_mode`` bit 1.
     ledger : ndarray, shape (2,)
@@ -323,7 +321,6 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     if uniform == UNIT:
         # Constants, so that the compiler drops the operations they make exact.
         m0, im0, d00, k0 = 1.0, 1.0, 0.0, 1.0
-    merged = merges_kicks(coulomb, stop_mode)
     for step in range(n_steps):
         wc = 0.0
         wv = 0.0
@@ -335,9 +332,9 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         n_hard = 0
         if stop_mode & STOP_ON_SEPARATION:
             watched_was = contact_state(coulomb, active, stop_contact, d0, u)
-        # Pass 1's kick: the first half of this step, and with merged kicks also
-        # the second half of the last step (not on the run's first step).
-        kd = dt if merged and not (opening and step == 0) else h
+        # Pass 1's kick (Coulomb scenes): the first half of this step and the
+        # second half of the last one, except on the run's first step.
+        kd = h if opening and step == 0 else dt
         if not coulomb:
             # One sweep: granule i+1's first half, contact i, granule i's second
             # half, so u, v, f stream from memory once per step. Granule i+1's new
@@ -406,10 +403,13 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                 # Pass 1: kick (by kd) and drift of granules [a, b).
                 for i in range(ua, ub):
                     # (the blocked passes run only with Coulomb friction: the sweep takes the rest)
-                    v1, w1, w2, code = coulomb_kick(v[i], f[i], eta[i], eta_s[i], inv_m[i], kd)
+                    vi = v[i]
+                    v1, w1, w2, code = coulomb_kick(vi, f[i], eta[i], eta_s[i], inv_m[i], kd)
                     wc += w1
                     n_stop += code & 1
                     n_slip += (code >> 1) & 1
+                    if stop_mode & STOP_ON_REST:
+                        n_moving += 1 - at_rest_by(vi, v1, f[i], eta[i], inv_m[i], h)
                     if viscous:
                         dui, v1, w2 = viscous_drift(v1, m[i], E[i], P1[i])
                         u[i] += dui
@@ -438,20 +438,11 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                     n_close += now & (1 - was)
                     n_open += was & (1 - now)
                     active[i] = now
-                # Pass 3: net force and (without merged kicks) second half kick of
-                # the granules whose two contacts are known: a-1 .. b-2, or to N-1
-                # on the last block.
+                # Pass 3: net force on the granules whose two contacts are known:
+                # a-1 .. b-2, or to N-1 on the last block (the kick that ends the
+                # step is the next step's pass 1).
                 for i in range(ulo, ue):
-                    F = cb[i + ONE - ua] - cb[i + TWO - ua]
-                    f[i] = F
-                    if not merged:
-                        v1, w1, w2, code = coulomb_kick(v[i], F, eta[i], eta_s[i], inv_m[i], h)
-                        wc += w1
-                        n_stop += code & 1
-                        n_slip += (code >> 1) & 1
-                        v[i] = v1
-                        if stop_mode & STOP_ON_REST:
-                            n_moving += 1 if v1 != 0.0 else 0
+                    f[i] = cb[i + ONE - ua] - cb[i + TWO - ua]
                 # Carry the block's last contact to the next block.
                 cb[0] = cb[b - a]
         if coulomb:
@@ -478,6 +469,12 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             if watched_was == 1 and contact_state(coulomb, active, stop_contact, d0, u) == 0:
                 return step + 1, SEPARATED
         if stop_mode & STOP_ON_REST:
-            if n_moving == 0:
+            if coulomb:
+                # Every granule was at rest when this step started (its pass-1 kick
+                # tells): the step changed nothing, so the run stops before it. On
+                # a chunk's first step simulate() has already tested that time.
+                if n_moving == 0 and step > 0:
+                    return step, AT_REST
+            elif n_moving == 0:
                 return step + 1, AT_REST
     return n_steps, RAN_CHUNK
