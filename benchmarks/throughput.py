@@ -8,6 +8,10 @@ from numba's cache, by a warm-up run first), grain_steps_per_s, and the
 energy-ledger balance error at the end.
 
     python benchmarks/throughput.py --grains 10000 --steps 20000 --features coulomb+viscous --json
+    python benchmarks/throughput.py --grains 1000 --steps 20000 --features coulomb+viscous --initial random --stop rest --json
+
+``--stop rest`` ends the run when every granule is at rest (Coulomb friction holds
+the random chain after t ~ 100); ``steps`` in the output is then the steps taken.
 """
 
 import argparse
@@ -24,13 +28,13 @@ FRICTION = {
 }
 
 
-def chain_scene(grains, steps, features, dt=0.01, stepper="verlet"):
+def chain_scene(grains, steps, features, dt=0.01, stepper="verlet", stop="t_end"):
     return gc.scene_from_dict({
         "name": "throughput",
         "granules": {"count": grains, "mass": 1.0, "radius": 0.5, "gap": 0.0,
                      "velocity": {0: 1.0}, "friction": FRICTION[features]},
         "contacts": {"exponent": 2.5, "stiffness": 1.0},
-        "run": {"stepper": stepper, "dt": dt, "t_end": steps * dt},
+        "run": {"stepper": stepper, "dt": dt, "t_end": steps * dt, "stop": stop},
         # one frame at the end: the run is a single compiled chunk
         "output": {"every": steps, "trajectory": False},
     })
@@ -49,16 +53,17 @@ def _run(scene, initial, seed=1):
     return _simulate_verlet(scene, model, False)
 
 
-def measure(grains, steps, features, stepper="verlet", initial="struck"):
+def measure(grains, steps, features, stepper="verlet", initial="struck", stop="t_end"):
     if initial != "struck" and stepper != "verlet":
         raise SystemExit("--initial random is only implemented for --stepper verlet")
-    _run(chain_scene(grains, 2, features, stepper=stepper), initial)  # warm-up
-    scene = chain_scene(grains, steps, features, stepper=stepper)
+    _run(chain_scene(grains, 2, features, stepper=stepper, stop=stop), initial)  # warm-up
+    scene = chain_scene(grains, steps, features, stepper=stepper, stop=stop)
     t0 = time.perf_counter()
     r = _run(scene, initial)
     total = time.perf_counter() - t0
     out = {
         "grains": grains, "steps": r.steps, "features": features, "stepper": stepper, "initial": initial,
+        "stop": stop,
         "seconds": r.wall_time, "seconds_with_setup": total,
         "energy_balance_error": r.energy.balance_error, "status": r.status.name.lower(),
     }
@@ -106,9 +111,11 @@ def main():
     p.add_argument("--initial", choices=["struck", "random"], default="struck",
                    help="struck: granule 0 at v = 1 (default); random: every granule at a "
                         "velocity uniform in [-0.1, 0.1] (Verlet only)")
+    p.add_argument("--stop", choices=["t_end", "rest"], default="t_end",
+                   help="rest: also stop when every granule is at rest")
     p.add_argument("--json", action="store_true")
     a = p.parse_args()
-    out = measure(a.grains, a.steps, a.features, a.stepper, a.initial)
+    out = measure(a.grains, a.steps, a.features, a.stepper, a.initial, a.stop)
     if a.json:
         print(json.dumps(out))
     else:
