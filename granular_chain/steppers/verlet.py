@@ -40,9 +40,10 @@ parameters. The paper's scaled chain, m = 1 and k = 1 on touching granules
 k, the add of d0 and the mass factors are left out (1.10-1.17x in cache, measured),
 and since x * 1 and x + 0 are exact the results are bit-identical to ``UNIFORM``.
 
-*Scenes with Coulomb friction* take **three cache-blocked passes**: (1) first
-kick + drift, (2) contact forces and contact events, (3) net force + second
-kick. Their kick loops vectorise (8 granules per AVX-512 instruction) where the
+*Scenes with Coulomb friction* take **three cache-blocked passes**: (1) kick +
+drift, (2) contact forces and contact events, (3) net force (the kick that
+ends a step is merged into the next step's pass 1; see *Merged kicks* below).
+Their kick loops vectorise (8 granules per AVX-512 instruction) where the
 sweep's branch-free Coulomb kick carried from one iteration to the next does not
 (the sweep measured 4x slower with Coulomb friction). The chain is walked in
 blocks of ``BLOCK`` granules (``BLOCK_LONG`` on long chains), and for each
@@ -332,9 +333,6 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         n_hard = 0
         if stop_mode & STOP_ON_SEPARATION:
             watched_was = contact_state(coulomb, active, stop_contact, d0, u)
-        # Pass 1's kick (Coulomb scenes): the first half of this step and the
-        # second half of the last one, except on the run's first step.
-        kd = h if opening and step == 0 else dt
         if not coulomb:
             # One sweep: granule i+1's first half, contact i, granule i's second
             # half, so u, v, f stream from memory once per step. Granule i+1's new
@@ -391,6 +389,9 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             n_close = (n_change + n_net) >> 1
             n_open = (n_change - n_net) >> 1
         else:
+            # Pass 1's kick: the first half of this step and the second half of
+            # the last one, except on the run's first step.
+            kd = h if opening and step == 0 else dt
             for a in range(0, N, B):
                 b = min(a + B, N)
                 # Unsigned loop indices: a signed index from a non-zero start gets
