@@ -11,7 +11,10 @@ The Verlet stepper splits each step into kick(dt/2) - drift(dt) - kick(dt/2)
 
   so a granule stops exactly at v = 0 (no chattering about zero, no tanh
   smoothing), sticks when the spring cannot overcome the static threshold,
-  and slips (or reverses) otherwise;
+  and slips (or reverses) otherwise. The kick is the exact flow of an
+  autonomous equation while F is frozen, so two kicks of h in a row are one
+  kick of 2h: the stepper merges a step's last kick with the next step's first
+  (:mod:`granular_chain.steppers.verlet`, "Merged kicks");
 * the *drift* moves each granule under its viscous drag alone, exactly::
 
       v(t) = v0 exp(-c t),  u(t) = u0 + v0 phi1(c, t),  c = gamma / m,
