@@ -294,7 +294,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     Returns
     -------
     steps : int
-        Steps taken.
+        Steps taken; with AT_REST in a Coulomb scene, the steps up to the time
+        every granule was at rest (the step that found it moved nothing).
     code : int
         RAN_CHUNK, SEPARATED, AT_REST or OVERLAPPED.
     """
