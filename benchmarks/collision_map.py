@@ -14,8 +14,9 @@ Measures
    --before DIR (an unpacked checkout of the code before collision_map, e.g.
    ``git archive 0ef0014 | tar -x -C /tmp/before``), the same in that code.
 
-Writes benchmarks/results/collision_map.md and .json (load average noted: the
-machine may be shared, and every time here is wall time).
+Adds the run to benchmarks/results/collision_map.json under ``--key`` (default: the
+time; load average noted: the machine may be shared, and every time here is wall
+time). benchmarks/results/collision_map.md is written by hand from those runs.
 
     python benchmarks/collision_map.py                       # about 10 minutes
     python benchmarks/collision_map.py --grid 300 --before /tmp/before
@@ -77,6 +78,8 @@ def main():
     p.add_argument("--small", type=int, default=200, help="points per axis, repeated maps")
     p.add_argument("--hertz", type=int, default=100, help="points per axis, n = 5/2 map")
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--key", default=None,
+                   help="name of this run in results/collision_map.json (default: the time)")
     p.add_argument("--before", default=None, help="checkout of the code before collision_map")
     p.add_argument("--per-call-only", action="store_true", help=argparse.SUPPRESS)
     a = p.parse_args()
@@ -151,8 +154,16 @@ def main():
               + (f", before {b['call_us']:7.1f} us (kernel {b['kernel_us']:.1f})" if b else ""))
     rows["load_end"] = load()
     os.makedirs(RESULTS, exist_ok=True)
-    with open(os.path.join(RESULTS, "collision_map.json"), "w") as f:
-        json.dump(rows, f, indent=1)
+    # Each run is added under its own key: the file keeps the earlier runs the
+    # docs cite (run1 .. run5_third_session).
+    path = os.path.join(RESULTS, "collision_map.json")
+    runs = {}
+    if os.path.exists(path):
+        with open(path) as f:
+            runs = json.load(f)
+    runs[a.key or time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())] = rows
+    with open(path, "w") as f:
+        json.dump(runs, f, indent=1)
     print("load", rows["load_end"])
 
 
