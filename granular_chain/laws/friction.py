@@ -77,6 +77,14 @@ def viscous_drift(v, m, E, P1):
 
 
 @numba.njit(inline="always", cache=True)
+def sliding(v, F, eta, inv_m):
+    """(s, a): the sliding direction sign(v) (0 at rest) and the acceleration
+    (F - eta s) / m of a granule moving at v under the frozen force F."""
+    s = (1.0 if v > 0.0 else 0.0) - (1.0 if v < 0.0 else 0.0)
+    return s, (F - eta * s) * inv_m
+
+
+@numba.njit(inline="always", cache=True)
 def coulomb_kick(v, F, eta, eta_s, inv_m, h):
     """Exact kick of duration h under a frozen spring force F and Coulomb stick/slip.
 
@@ -94,8 +102,7 @@ def coulomb_kick(v, F, eta, eta_s, inv_m, h):
     h : float
         Kick duration (dt/2).
     """
-    s = (1.0 if v > 0.0 else 0.0) - (1.0 if v < 0.0 else 0.0)
-    a = (F - eta * s) * inv_m
+    s, a = sliding(v, F, eta, inv_m)
     v1 = v + a * h
     through = v1 * s > 0.0  # slid the whole kick without stopping
     stopped = (not through) and s != 0.0
@@ -120,8 +127,7 @@ def at_rest_by(v, v1, F, eta, inv_m, t):
     stopped by time t into it (|v| <= t |a| with a the sliding deceleration;
     from rest, at once), else 0. A granule at rest by t stays so: v1 = 0 means
     the spring could not beat the static threshold."""
-    s = (1.0 if v > 0.0 else 0.0) - (1.0 if v < 0.0 else 0.0)
-    a = (F - eta * s) * inv_m
+    s, a = sliding(v, F, eta, inv_m)
     return 1 if (v1 == 0.0 and abs(v) <= t * abs(a)) else 0
 
 
