@@ -27,6 +27,8 @@ class Status(enum.IntEnum):
     ZENO = -4  #: event stepper: events accumulate at a finite time
     UNSTABLE = -5  #: the energy ledger stopped balancing (error above the initial energy)
     OVERLAP = -6  #: an overlap grew beyond a granule's radius: the contact model no longer applies
+    INTERRUPTED = -7  #: stopped by SIGINT (Ctrl-C) or SIGTERM; the result holds what was computed
+    INACCURATE = -8  #: the run ended, but its energy ledger missed the stepper's promised tolerance
 
     @property
     def success(self) -> bool:
