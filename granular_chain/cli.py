@@ -2,40 +2,31 @@
 
 Exit status: 0 success, 1 a run that ended without success (its outputs say
 why), 2 bad input (one line on stderr naming the file, the field and the
-problem; nothing written), 130 interrupted (Ctrl-C; nothing written), 143
-terminated (SIGTERM; nothing written).
+problem; nothing written), 130 interrupted by Ctrl-C (SIGINT), 143 terminated
+(SIGTERM): an interrupted run is written as far as it went, marked incomplete.
 
 What ``run`` writes is asked for by the scene's ``output`` fields or, for one run,
 by flags that override them (``--vtk``, ``--trajectory/--no-trajectory``, ``--csv``,
-``--plots``): summary.json always, and only the writers asked for. The scene stored
-in summary.json records the choices after the flags.
+``--plots``): run.json and summary.json always, and only the writers asked for.
+The scene stored in summary.json records the choices after the flags.
 
-Writing is atomic: everything goes to a hidden ``.NAME.partial-XXXX`` folder beside
-``--out``, renamed onto ``--out`` only when every writer has finished; a run that
-fails, raises or is interrupted removes it. summary.json is written last, so even a
-partial folder left by a hard kill (SIGKILL, power loss) has none.
+Where ``run`` writes, and what it may replace, is :mod:`granular_chain.rundir`'s
+rule: a new folder, or an earlier run folder of the engine holding nothing else
+(with ``--overwrite``); written beside the destination and renamed into place.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import os
-import shutil
-import signal
 import sys
-import tempfile
 from pathlib import Path
 
 from .scene import SceneError, load_scene, scene_json_schema
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + signal number, as shells report
-
-
-class _Terminated(BaseException):
-    """SIGTERM turned into an exception, so the same clean-up as Ctrl-C runs."""
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -47,7 +38,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="dotted.path=value", help="override a scene field (repeatable)")
     run.add_argument("--out", default=None,
-                     help="output folder (default outputs/<scene name>); replaced atomically")
+                     help="output folder: a new one, or an earlier run folder with --overwrite "
+                     "(default outputs/<scene name>, with a suffix for --set overrides)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the earlier run in --out (atomically; only a folder the "
+                     "engine wrote, holding nothing else)")
     run.add_argument("--quiet", action="store_true", help="no progress bar, no report")
     writers = run.add_argument_group(
         "writers", "override the scene's output fields for this run "
@@ -93,36 +88,6 @@ def _fail(message: str) -> int:
     return EXIT_BAD_INPUT
 
 
-def _prepare_output(out: Path) -> Path:
-    """A fresh temporary folder beside ``out`` (renamed onto it when the run is complete)."""
-    parent = out.parent if str(out.parent) else Path(".")
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-        return Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=parent))
-    except OSError as exc:
-        raise SceneError("--out", str(out), f"cannot be written ({exc.strerror or exc})") from None
-
-
-def _publish(tmp: Path, out: Path) -> None:
-    """Move the finished temporary folder onto ``out`` (replacing an older run)."""
-    # mkdtemp makes the folder private (0700); the published run gets the
-    # permissions an ordinary mkdir would have given it.
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o777 & ~umask)
-    if out.exists():
-        old = out.with_name(f".{out.name}.old-{os.getpid()}")
-        out.rename(old)
-        try:
-            tmp.rename(out)
-        except BaseException:
-            old.rename(out)  # put the previous run back rather than leave no --out
-            raise
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        tmp.rename(out)
-
-
 def _apply_writer_flags(scene, args) -> None:
     for name in ("vtk", "trajectory", "csv", "plots"):
         flag = getattr(args, name, None)
@@ -130,89 +95,108 @@ def _apply_writer_flags(scene, args) -> None:
             setattr(scene.output, name, flag)
 
 
-def _write_outputs(result, folder: Path, scene, progress: bool) -> None:
-    """Every writer the scene asks for, then summary.json last (the completion mark)."""
+def _write_outputs(result, folder: Path, scene, progress: bool, stop) -> list[str]:
+    """Every writer the scene asks for, summary.json last; returns the writers a
+    stop request skipped or cut short.
+
+    The trajectory and the tables take a fraction of a second and are always
+    written, so an interrupted run keeps what it computed; the VTK series and
+    the plots can take long and are skipped once a stop is asked for
+    (``granular-chain plot RUN_DIR`` draws the plots later).
+    """
     out = scene.output
+    missed = []
     if out.trajectory:
         from .writers.trajectory import write_trajectory
         write_trajectory(result, folder, scene)
     if out.csv:
         from .writers.tables import write_tables
         write_tables(result, folder, scene)
-    if out.vtk:
+    if out.vtk and stop.requested:
+        missed.append("vtk")
+    elif out.vtk:
         from .writers.vtk import write_vtk
-        write_vtk(result, folder, scene, progress=progress)
-    if out.plots:
+        write_vtk(result, folder, scene, progress=progress, should_stop=lambda: stop.requested)
+        if stop.requested:
+            missed.append("vtk")
+    if out.plots and stop.requested:
+        missed.append("plots")
+    elif out.plots:
         from .writers.plots import write_plots
         write_plots(result, folder, scene)
     from .writers.summary import write_summary
     write_summary(result, folder, scene)
+    return missed
 
 
-@contextlib.contextmanager
-def _sigterm_as_exception():
-    """While running, SIGTERM raises :class:`_Terminated` (main thread only)."""
-    def handler(signum, frame):
-        raise _Terminated()
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread: leave signals alone
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+def _incomplete_reason(result, stop, missed: list[str]) -> str:
+    """Why a published run is incomplete ('' when it is complete)."""
+    from .result import Status
+
+    parts = []
+    if result.status == Status.INTERRUPTED:
+        parts.append(f"interrupted by {stop.name or 'a signal'} at t = {result.t_final:.6g}")
+    if missed:
+        parts.append(f"interrupted while writing: {', '.join(missed)} not (fully) written")
+    return "; ".join(parts)
+
+
+def _output_folder(args, scene) -> tuple[Path, bool]:
+    """The run's folder and whether it is the default one (not named by --out)."""
+    from .rundir import default_out
+
+    if args.out:
+        return Path(args.out), False
+    return default_out(scene.name, args.overrides), True
 
 
 def cmd_run(args) -> int:
-    from .simulate import SimulationError, simulate
+    from .interrupts import stop_signals
+    from .rundir import OutputError, RunFolder, check_out
+    from .simulate import SimulationError, preflight, simulate
 
     try:
         scene = load_scene(args.scene, args.overrides)
-    except SceneError as exc:
+        _apply_writer_flags(scene, args)
+        out, is_default = _output_folder(args, scene)
+        check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
+        preflight(scene)
+    except (SceneError, OutputError) as exc:
         return _fail(str(exc))
-    _apply_writer_flags(scene, args)
-    out = Path(args.out) if args.out else Path("outputs") / scene.name
-    if out.exists() and not out.is_dir():
-        return _fail(f"--out: {out} exists and is not a folder")
-    progress = None if not args.quiet else False
-    tmp = None
-    published = False
-    try:
-        with _sigterm_as_exception():
-            tmp = _prepare_output(out)
-            try:
-                result = simulate(scene, progress=progress)
-            except SimulationError as exc:
-                shutil.rmtree(tmp, ignore_errors=True)
-                return _fail(f"{args.scene}: {exc}")
-            _write_outputs(result, tmp, scene,
-                           progress=(not args.quiet) and sys.stderr.isatty())
-            _publish(tmp, out)
-            published = True
-    except SceneError as exc:  # --out cannot be created (raised before tmp exists)
-        return _fail(str(exc))
-    except BaseException as exc:
-        if tmp is not None and not published:
-            shutil.rmtree(tmp, ignore_errors=True)
-        if published:  # interrupted after the rename: the output is complete
-            raise
-        if isinstance(exc, KeyboardInterrupt):
+    except SimulationError as exc:
+        return _fail(f"{args.scene}: {exc}")
+    about = {"scene_name": scene.name, "scene_source": str(Path(args.scene).resolve()),
+             "overrides": list(args.overrides), "stepper": scene.run.stepper}
+    with stop_signals() as stop:
+        try:
+            with RunFolder(out, about) as folder:
+                result = simulate(scene, progress=None if not args.quiet else False)
+                missed = _write_outputs(result, folder.tmp, scene,
+                                        (not args.quiet) and sys.stderr.isatty(), stop)
+                reason = _incomplete_reason(result, stop, missed)
+                folder.publish(complete=not reason, reason=reason)
+        except OutputError as exc:
+            return _fail(str(exc))
+        except KeyboardInterrupt:  # a second signal: nothing kept, nothing left behind
             print(f"granular-chain: interrupted; nothing written to {out}", file=sys.stderr)
-            return EXIT_INTERRUPTED
-        if isinstance(exc, _Terminated):
-            print(f"granular-chain: terminated; nothing written to {out}", file=sys.stderr)
-            return EXIT_TERMINATED
-        raise
-    if not args.quiet:
-        print(f"{result.status.name.lower()}: {result.message}")
-        for w in result.info.get("warnings", []):
-            print(f"warning: {w}")
-        print(f"t_final = {result.t_final:.12g}, steps = {result.steps}, "
-              f"energy balance error = {result.energy.balance_error:.3g} (relative)")
-        print(f"wrote {out}/")
+            return stop.exit_code or EXIT_INTERRUPTED
+    _report(args, result, out, reason)
+    if stop.requested:
+        return stop.exit_code
     return EXIT_OK if result.success else EXIT_RUN_FAILED
+
+
+def _report(args, result, out: Path, reason: str) -> None:
+    if reason:  # said even with --quiet: the folder is not what a finished run leaves
+        print(f"granular-chain: {reason}; wrote {out}/ marked incomplete", file=sys.stderr)
+    if args.quiet:
+        return
+    print(f"{result.status.name.lower()}: {result.message}")
+    for w in result.info.get("warnings", []):
+        print(f"warning: {w}")
+    print(f"t_final = {result.t_final:.12g}, steps = {result.steps}, "
+          f"energy balance error = {result.energy.balance_error:.3g} (relative)")
+    print(f"wrote {out}/")
 
 
 def cmd_plot(args) -> int:

@@ -16,6 +16,7 @@ import numpy as np
 
 from ._compile import specialised
 from .forces import net_forces
+from .interrupts import CHUNK_SECONDS, stop_signals
 from .laws.friction import drift_tables
 from .model import Model, build_model
 from .result import OVERLAP_ADVICE, EnergyLedger, Result, Status
@@ -23,7 +24,7 @@ from .scene import Scene
 from .steppers import verlet
 from .units import scaled_parameters
 
-__all__ = ["simulate", "SimulationError", "default_dt", "check_dt"]
+__all__ = ["simulate", "preflight", "SimulationError", "default_dt", "check_dt"]
 
 # Velocity Verlet on a linear contact of period T is unstable for dt > T/pi.
 _STABILITY_FRACTION = 1.0 / math.pi
@@ -92,6 +93,24 @@ def _net_forces(model: Model, u, c, f):
     specialised(net_forces, args, (0, 1, 2))(*args)
 
 
+def preflight(scene: Scene) -> Model:
+    """Every check a run makes before it computes anything; the scene's Model.
+
+    ``granular-chain run`` calls this before it creates any folder, so that a
+    refused run changes nothing on disk.
+
+    Raises
+    ------
+    SimulationError
+        Naming the field to change and the limit (for example run.dt).
+    """
+    model = build_model(scene)
+    if scene.run.stepper == "verlet" and scene.run.check_dt:
+        dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
+        check_dt(model, dt)
+    return model
+
+
 def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
              run=None) -> Result:
     """Run a scene and return its :class:`Result`.
@@ -113,8 +132,15 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     ------
     SimulationError
         The run cannot start (for example dt too large for the stiffest contact).
+
+    Notes
+    -----
+    SIGINT (Ctrl-C) and SIGTERM during the run end it within about
+    :data:`granular_chain.interrupts.CHUNK_SECONDS` with ``Status.INTERRUPTED``
+    and the frames computed so far (in the main thread; elsewhere signals keep
+    their default effect).
     """
-    model = build_model(scene)
+    model = preflight(scene)
     settings = scene.run
     if settings.stepper == "event":
         from .steppers.events import simulate_events  # the event stepper (issue 3)
@@ -230,79 +256,123 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     kernel = specialised(verlet.verlet_chunk, tuple(args), (0, 1, 2, 3, 4, 5, 6))
     n_steps_at = _KERNEL_ARGS.index("n_steps")
     opening_at = _KERNEL_ARGS.index("opening")
+    chunk = _Chunk(N)
+    next_frame = min(every, n_total)
     try:
-        while steps < n_total:
-            args[n_steps_at] = min(every, n_total - steps)
-            taken, code = kernel(*args)
-            if taken == 0:  # a chunk always advances; guard against an endless loop
-                raise RuntimeError("internal error: the Verlet kernel took no step")
-            args[opening_at] = 0
-            if merged:
-                sync = verlet.synchronise(v, f, model.eta, model.eta_static, model.inv_mass,
-                                          0.5 * dt, vs)
-                if stop_mode & verlet.STOP_ON_REST and code == verlet.RAN_CHUNK and not vs.any():
-                    # at rest at the chunk's end (the kernel reads rest off the kick
-                    # after the time it holds, i.e. the next chunk's first step)
-                    code = verlet.AT_REST
-            steps += taken
-            t_now = steps * dt
-            if bar is not None:
-                bar.update(taken)
-                bar.set_postfix_str(f"t = {t_now:.4g} / {t_end:g}", refresh=False)
-            if not (np.all(np.isfinite(u)) and np.all(np.isfinite(vs))):
-                bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(vs)))[0])
-                status = Status.NONFINITE
-                message = (f"non-finite state by t = {t_now:.6g} at granule {bad}: the step "
-                           f"dt = {dt:g} is likely too large for the stiffest contact "
-                           f"(period or collision time {T:.4g}); reduce run.dt")
-                break
-            if code == verlet.SEPARATED:
-                t_now = _backtrack_to_separation(model, u, vs, f, ledger, stop_contact, dt, t_now)
-                status = Status.SEPARATED
-                message = (f"contact {stop_contact} opened at t = {t_now:.12g} (located "
-                           f"inside the step by a second-order backtrack)")
-            elif code == verlet.AT_REST:
-                status = Status.AT_REST
-                message = f"every granule at rest (held by static friction) at t = {t_now:.12g}"
-            problem = _overlap_problem(model, u, limits)
-            if problem:
-                status = Status.OVERLAP
-                message = f"{problem} at t = {t_now:.6g}; " + OVERLAP_ADVICE
-                if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
-                    message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
-                                f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
-                break
-            ke, pe = model.energies(u, vs)
-            coulomb_work = ledger[0] - sync[0]
-            balance = abs(ke + pe + coulomb_work + ledger[1] - e0)
-            if e0 > 0 and not balance <= _UNSTABLE_BALANCE * e0:
-                # A stable run balances its ledger to O(dt^2); an error as large
-                # as the initial energy itself means the integration blew up.
-                status = Status.UNSTABLE
-                message = (f"energy ledger off by {balance / e0:.3g} x the initial energy at "
-                           f"t = {t_now:.6g}: the integration is unstable; reduce run.dt "
-                           f"(now {dt:g}; stiffest contact time {T:.4g})")
-                break
-            frames.record(t_now, model.x0 + u, vs, f, ke, pe, coulomb_work, ledger[1])
-            if code != verlet.RAN_CHUNK:
-                break
-        else:
-            if limited:
-                status = Status.MAX_STEPS
-                message = (f"stopped after run.max_steps = {settings.max_steps} steps at "
-                           f"t = {t_now:.6g} before t_end = {t_end:g}; raise run.max_steps "
-                           f"or run.dt")
+        with stop_signals() as stop:
+            while steps < n_total:
+                # A compiled call runs to the next frame or for about CHUNK_SECONDS,
+                # whichever is first; the trajectory does not depend on where calls end.
+                args[n_steps_at] = min(next_frame - steps, chunk.steps)
+                taken, code = chunk.call(kernel, args)
+                if taken == 0:  # a call always advances; guard against an endless loop
+                    raise RuntimeError("internal error: the Verlet kernel took no step")
+                args[opening_at] = 0
+                steps += taken
+                t_now = steps * dt
+                if bar is not None:
+                    bar.update(taken)
+                    bar.set_postfix_str(f"t = {t_now:.4g} / {t_end:g}", refresh=False)
+                if steps < next_frame and code == verlet.RAN_CHUNK and not stop.requested:
+                    continue
+                next_frame = min(steps + every, n_total)
+                if merged:
+                    sync = verlet.synchronise(v, f, model.eta, model.eta_static, model.inv_mass,
+                                              0.5 * dt, vs)
+                    if stop_mode & verlet.STOP_ON_REST and code == verlet.RAN_CHUNK \
+                            and not vs.any():
+                        # at rest at the frame (the kernel reads rest off the kick
+                        # after the time it holds, i.e. the next call's first step)
+                        code = verlet.AT_REST
+                if not (np.all(np.isfinite(u)) and np.all(np.isfinite(vs))):
+                    bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(vs)))[0])
+                    status = Status.NONFINITE
+                    message = (f"non-finite state by t = {t_now:.6g} at granule {bad}: the "
+                               f"step dt = {dt:g} is likely too large for the stiffest contact "
+                               f"(period or collision time {T:.4g}); reduce run.dt")
+                    break
+                if code == verlet.SEPARATED:
+                    t_now = _backtrack_to_separation(model, u, vs, f, ledger, stop_contact, dt,
+                                                     t_now)
+                    status = Status.SEPARATED
+                    message = (f"contact {stop_contact} opened at t = {t_now:.12g} (located "
+                               f"inside the step by a second-order backtrack)")
+                elif code == verlet.AT_REST:
+                    status = Status.AT_REST
+                    message = (f"every granule at rest (held by static friction) at "
+                               f"t = {t_now:.12g}")
+                problem = _overlap_problem(model, u, limits)
+                if problem:
+                    status = Status.OVERLAP
+                    message = f"{problem} at t = {t_now:.6g}; " + OVERLAP_ADVICE
+                    if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+                        message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
+                                    f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
+                    break
+                ke, pe = model.energies(u, vs)
+                coulomb_work = ledger[0] - sync[0]
+                balance = abs(ke + pe + coulomb_work + ledger[1] - e0)
+                if e0 > 0 and not balance <= _UNSTABLE_BALANCE * e0:
+                    # A stable run balances its ledger to O(dt^2); an error as large
+                    # as the initial energy itself means the integration blew up.
+                    status = Status.UNSTABLE
+                    message = (f"energy ledger off by {balance / e0:.3g} x the initial energy "
+                               f"at t = {t_now:.6g}: the integration is unstable; reduce "
+                               f"run.dt (now {dt:g}; stiffest contact time {T:.4g})")
+                    break
+                frames.record(t_now, model.x0 + u, vs, f, ke, pe, coulomb_work, ledger[1])
+                if code != verlet.RAN_CHUNK:
+                    break
+                if stop.requested:
+                    status = Status.INTERRUPTED
+                    message = (f"interrupted by {stop.name} at t = {t_now:.12g} after "
+                               f"{steps} of {n_total} steps; the frames up to then are kept")
+                    break
             else:
-                message = f"reached t_end = {t_now:.12g} after {steps} steps"
+                if limited:
+                    status = Status.MAX_STEPS
+                    message = (f"stopped after run.max_steps = {settings.max_steps} steps at "
+                               f"t = {t_now:.6g} before t_end = {t_end:g}; raise "
+                               f"run.max_steps or run.dt")
+                else:
+                    message = f"reached t_end = {t_now:.12g} after {steps} steps"
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
     counts[verlet.EV_STOP] += sync[1]
     counts[verlet.EV_SLIP] += sync[2]
-    return _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
+    result = _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
+    if status == Status.INTERRUPTED:
+        result.info["signal"] = stop.signum
+    return result
 
 
+class _Chunk:
+    """Steps per compiled call, adapted so that a call returns within about
+    :data:`~granular_chain.interrupts.CHUNK_SECONDS`: a stop request is then
+    honoured promptly whatever the chain length or the output cadence.
+
+    Parameters
+    ----------
+    count : int
+        Granules N; the first call takes about 2e6 granule-steps (a few ms).
+    """
+
+    def __init__(self, count: int):
+        self.steps = max(1, 2_000_000 // max(count, 1))
+
+    def call(self, kernel, args):
+        """Call the kernel once and adapt :attr:`steps` to its measured rate
+        (changing by at most 4x a call, so one slow call, such as the first,
+        which may compile, does not swing it)."""
+        begin = time.perf_counter()
+        taken, code = kernel(*args)
+        elapsed = time.perf_counter() - begin
+        if taken > 0:
+            target = taken * CHUNK_SECONDS / max(elapsed, 1e-6)
+            self.steps = int(max(1, self.steps / 4, min(target, 4 * self.steps)))
+        return taken, code
 
 
 def _uniform_code(model: Model, feat, E, P1, P2) -> int:

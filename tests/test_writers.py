@@ -202,15 +202,15 @@ def _files(folder):
     return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
 
 
-def test_run_that_asks_for_nothing_writes_only_summary(tmp_path):
+def test_run_that_asks_for_nothing_writes_only_marker_and_summary(tmp_path):
     out = tmp_path / "none"
     assert main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=5",
                  "--set", "output.trajectory=false"]) == 0
-    assert _files(out) == ["summary.json"]
+    assert _files(out) == ["run.json", "summary.json"]
     out2 = tmp_path / "flag"
     assert main(["run", str(CHAIN), "--out", str(out2), "--quiet", "--set", "run.t_end=5",
                  "--no-trajectory"]) == 0
-    assert _files(out2) == ["summary.json"]
+    assert _files(out2) == ["run.json", "summary.json"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["flag", "none"]
 
 
@@ -276,7 +276,8 @@ def test_failing_rerun_keeps_the_previous_run(tmp_path, monkeypatch):
     before = (out / "summary.json").read_text()
     monkeypatch.setattr(tables, "write_tables", lambda *a, **k: 1 / 0)
     with pytest.raises(ZeroDivisionError):
-        main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=3", "--csv"])
+        main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=3", "--csv",
+              "--overwrite"])
     assert (out / "summary.json").read_text() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 

@@ -216,7 +216,7 @@ class VTKSeriesWriter:
 
 
 def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
-              progress: bool = False) -> Path:
+              progress: bool = False, should_stop=None) -> Path:
     """Write every frame of ``result`` as a VTK time series; return the ``.pvd`` path.
 
     Parameters
@@ -229,6 +229,10 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
     compression : {"zlib", "lz4", "lzma", None}
     progress : bool
         Show a bar of frames written (tqdm).
+    should_stop : callable, optional
+        Asked before each frame; when it returns true the series ends there
+        (with a valid index of the frames written), so a stop request is
+        honoured within one frame.
     """
     from ..model import build_model
 
@@ -240,5 +244,7 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
     with VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
                          model.eta_static, compression=compression) as series:
         for i in frames:
+            if should_stop is not None and should_stop():
+                break
             series.write_frame(float(result.t[i]), result.x[i], result.v[i], result.f[i])
     return Path(folder) / PVD_NAME

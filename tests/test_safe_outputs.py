@@ -1,0 +1,220 @@
+"""The user's files are never touched: where ``granular-chain run`` may write, what
+it may replace, and what an interrupted or failed run leaves behind.
+
+Every destructive case puts a sentinel file in the user's folder and checks
+that it survives byte for byte, and that nothing else in the folder changed.
+"""
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from granular_chain.cli import main
+from granular_chain.rundir import MARKER, default_out, read_marker
+
+SCENE = """\
+name: tiny
+granules: {count: 2, velocity: [1.0, 0.0]}
+run: {t_end: 0.5}
+"""
+
+
+def snapshot(folder: Path) -> dict:
+    """Every file below ``folder`` (hidden ones too) with its content digest."""
+    out = {}
+    for root, dirs, files in os.walk(folder):
+        for name in files:
+            p = Path(root) / name
+            out[p.relative_to(folder).as_posix()] = hashlib.sha1(p.read_bytes()).hexdigest()
+        for name in dirs:
+            out[(Path(root) / name).relative_to(folder).as_posix() + "/"] = "dir"
+    return out
+
+
+@pytest.fixture
+def work(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "scene.yaml").write_text(SCENE)
+    return tmp_path
+
+
+def run(*args):
+    return main(["run", "scene.yaml", "--quiet", *args])
+
+
+def refused(capsys, *args) -> str:
+    code = run(*args)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("granular-chain: "), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def with_sentinel(folder: Path) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    sentinel = folder / "my_thesis.tex"
+    sentinel.write_text("three years of work\n")
+    return sentinel
+
+
+def test_existing_user_folder_is_refused_and_untouched(work, capsys):
+    sentinel = with_sentinel(work / "results")
+    before = snapshot(work)
+    line = refused(capsys, "--out", "results")
+    assert "--out results" in line and "did not write" in line
+    assert snapshot(work) == before
+    assert sentinel.read_text() == "three years of work\n"
+
+
+def test_existing_user_folder_is_refused_even_with_overwrite(work, capsys):
+    with_sentinel(work / "results")
+    before = snapshot(work)
+    refused(capsys, "--out", "results", "--overwrite")
+    assert snapshot(work) == before
+
+
+def test_empty_user_folder_is_refused(work, capsys):
+    (work / "empty").mkdir()
+    before = snapshot(work)
+    assert "empty folder" in refused(capsys, "--out", "empty")
+    assert snapshot(work) == before
+
+
+@pytest.mark.parametrize("target", [".", "./", "..", "sub/..", str(Path("/"))])
+def test_current_folder_and_its_parents_are_refused(work, capsys, target):
+    with_sentinel(work)
+    before = snapshot(work)
+    line = refused(capsys, "--out", target)
+    assert "current folder" in line
+    assert snapshot(work) == before
+
+
+def test_out_onto_a_file_is_refused(work, capsys):
+    (work / "notes.txt").write_text("mine")
+    before = snapshot(work)
+    assert "is a file" in refused(capsys, "--out", "notes.txt")
+    assert "is a file" in refused(capsys, "--out", "notes.txt/run")
+    assert snapshot(work) == before
+
+
+def test_out_onto_a_symlink_is_refused(work, capsys):
+    with_sentinel(work / "real")
+    (work / "link").symlink_to(work / "real")
+    before = snapshot(work)
+    assert "symbolic link" in refused(capsys, "--out", "link")
+    assert snapshot(work) == before
+
+
+def test_earlier_run_needs_overwrite(work, capsys):
+    assert run("--out", "r") == 0
+    first = snapshot(work / "r")
+    line = refused(capsys, "--out", "r")
+    assert "--overwrite" in line
+    assert snapshot(work / "r") == first
+
+
+def test_overwrite_replaces_an_earlier_run_and_leaves_no_debris(work):
+    assert run("--out", "r") == 0
+    assert run("--out", "r", "--overwrite", "--set", "run.t_end=0.25") == 0
+    summary = json.loads((work / "r" / "summary.json").read_text())
+    assert summary["t_final"] == pytest.approx(0.25)
+    hidden = [p.name for p in work.iterdir() if p.name.startswith(".")]
+    assert hidden == []
+
+
+def test_overwrite_refuses_a_run_folder_holding_a_user_file(work, capsys):
+    assert run("--out", "r") == 0
+    sentinel = with_sentinel(work / "r")
+    before = snapshot(work)
+    line = refused(capsys, "--out", "r", "--overwrite")
+    assert "my_thesis.tex" in line and "not written by the engine" in line
+    assert snapshot(work) == before and sentinel.exists()
+
+
+def test_forged_marker_of_another_program_is_not_a_run(work, capsys):
+    folder = work / "r"
+    with_sentinel(folder)
+    (folder / MARKER).write_text(json.dumps({"engine": "someone_else", "files": []}))
+    before = snapshot(work)
+    refused(capsys, "--out", "r", "--overwrite")
+    assert snapshot(work) == before
+
+
+def test_marker_lists_every_file_written(work):
+    assert run("--out", "r", "--csv") == 0
+    marker = read_marker(work / "r")
+    assert marker["complete"] is True and marker["reason"] == ""
+    on_disk = {p.relative_to(work / "r").as_posix() for p in (work / "r").rglob("*")
+               if p.is_file()} - {MARKER}
+    assert set(marker["files"]) == on_disk
+    assert {"summary.json", "trajectory.h5", "energy.csv"} <= on_disk
+
+
+def test_default_folder_gets_a_stable_suffix_per_overrides(work):
+    assert run() == 0
+    assert run("--set", "run.t_end=0.25") == 0
+    assert run("--set", "run.t_end=0.3") == 0
+    names = sorted(p.name for p in (work / "outputs").iterdir())
+    assert names[0] == "tiny" and len(names) == 3 and len(set(names)) == 3
+    assert default_out("tiny", ["run.t_end=0.25"]) == Path("outputs") / names[1] or \
+        default_out("tiny", ["run.t_end=0.25"]) == Path("outputs") / names[2]
+    # the same overrides, spelled differently or reordered, find the same folder
+    a = default_out("tiny", ["run.t_end=0.25", "granules.velocity=[1,0]"])
+    b = default_out("tiny", ["granules.velocity=[1, 0]", "run.t_end=0.25"])
+    assert a == b != default_out("tiny", ["run.t_end=0.25"])
+
+
+def test_default_folder_is_replaced_by_a_rerun_of_the_same_scene(work):
+    assert run() == 0
+    assert run() == 0
+    assert read_marker(work / "outputs" / "tiny")["complete"] is True
+
+
+def test_default_folder_of_another_scene_file_is_not_replaced(work, capsys):
+    assert run() == 0
+    (work / "other.yaml").write_text(SCENE)
+    before = snapshot(work / "outputs")
+    code = main(["run", "other.yaml", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "holds an earlier run" in err and "scene.yaml" in err
+    assert snapshot(work / "outputs") == before
+
+
+def test_refused_run_creates_nothing(work, capsys):
+    (work / "bad.yaml").write_text(SCENE.replace("t_end: 0.5", "t_end: 0.5, dt: 10.0"))
+    before = snapshot(work)
+    code = main(["run", "bad.yaml", "--out", "new/deep/folder"])
+    assert code == 2 and "run.dt" in capsys.readouterr().err
+    assert snapshot(work) == before
+
+
+def test_failed_writer_leaves_nothing(work, monkeypatch):
+    import granular_chain.writers.summary as summary
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(summary, "write_summary", broken)
+    with_sentinel(work)
+    before = snapshot(work)
+    with pytest.raises(OSError):
+        run("--out", "r")
+    assert snapshot(work) == before
+
+
+def test_stale_partial_folder_of_a_killed_run_is_cleared(work):
+    stale = work / ".r.partial-abc123"
+    stale.mkdir()
+    (stale / "trajectory.h5").write_bytes(b"half")
+    (stale / MARKER).write_text(json.dumps(
+        {"engine": "granular_chain", "complete": False, "reason": "running",
+         "pid": 2 ** 22 + 12345, "files": []}))
+    user_hidden = work / ".r.partial-mine"  # looks alike, but has no marker: not ours
+    with_sentinel(user_hidden)
+    assert run("--out", "r") == 0
+    assert not stale.exists() and (user_hidden / "my_thesis.tex").exists()
