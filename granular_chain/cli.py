@@ -218,10 +218,17 @@ def cmd_plot(args) -> int:
     count = result.x.shape[1]
     if granules is not None and any(not 0 <= g < count for g in granules):
         return _fail(f"--granules: indices must be in 0..{count - 1}, got {args.granules}")
+    from .rundir import OutputError, adopt_files, check_new_files
     # --out names the PNG folder itself; by default they go to RUN_DIR/plots/.
     folder, subdir = (Path(args.out), "") if args.out else (run_dir, PLOT_DIR)
+    names = ("spacetime.png", "energy.png", "velocities.png", "frame.png")
+    try:
+        check_new_files([folder / subdir / n for n in names], "--out" if args.out else "RUN_DIR")
+    except OutputError as exc:
+        return _fail(str(exc))
     paths = write_plots(result, folder, scene, granules=granules, frame_time=args.frame_time,
                         render=args.render, subdir=subdir)
+    adopt_files(run_dir, [p for p in paths if run_dir.resolve() in Path(p).resolve().parents])
     for path in paths:
         print(path)
     return EXIT_OK

@@ -523,8 +523,12 @@ def run_diagnose_command(args) -> int:
     """Entry point of ``granular-chain diagnose``: 0 ok, 1 run failed, 2 bad input."""
     from .scene import SceneError, load_scene
 
+    from .rundir import OutputError, check_new_files, write_text_atomic
+
     target = Path(args.target)
     try:
+        if args.out:
+            check_new_files([Path(args.out)], "--out")
         if target.is_dir():
             if not (target / "trajectory.h5").is_file():
                 print(f"granular-chain: {target}: no trajectory.h5 (run with trajectory on)",
@@ -544,12 +548,12 @@ def run_diagnose_command(args) -> int:
             except SimulationError as exc:
                 print(f"granular-chain: {target}: {exc}", file=sys.stderr)
                 return 2
-    except SceneError as exc:
+    except (SceneError, OutputError) as exc:
         print(f"granular-chain: {exc}", file=sys.stderr)
         return 2
     summary = summarize(result, scene, first=args.first)
     text = json.dumps(summary, indent=2)
     print(text)
     if args.out:
-        Path(args.out).write_text(text + "\n")
+        write_text_atomic(Path(args.out), text + "\n")
     return 0 if result.success else 1

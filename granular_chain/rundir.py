@@ -29,7 +29,8 @@ from typing import Iterable, Optional, Sequence
 
 import yaml
 
-__all__ = ["MARKER", "OutputError", "RunFolder", "default_out", "read_marker", "check_out"]
+__all__ = ["MARKER", "OutputError", "RunFolder", "default_out", "read_marker", "check_out",
+           "check_new_files", "adopt_files", "write_text_atomic"]
 
 MARKER = "run.json"
 ENGINE = "granular_chain"
@@ -247,3 +248,52 @@ def _remove_stale_partials(parent: Path, name: str) -> None:
         if tmp.is_dir() and marker is not None and not marker.get("complete") \
                 and not _pid_alive(marker.get("pid")):
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+def check_new_files(paths: Sequence[Path], what: str) -> None:
+    """Refuse to write ``paths`` where a file exists that the engine did not write.
+
+    A file inside a run folder and listed in its marker is the engine's and
+    may be replaced; any other existing file is the user's.
+
+    Parameters
+    ----------
+    paths : sequence of Path
+        Files about to be written.
+    what : str
+        The flag or argument that chose them, for the message (``--out``).
+    """
+    for path in paths:
+        path = Path(path)
+        if not path.exists() and not path.is_symlink():
+            continue
+        for folder in path.parents:
+            marker = read_marker(folder)
+            if marker is not None:
+                rel = path.relative_to(folder).as_posix()
+                if rel in marker.get("files", []) and path.is_file():
+                    break
+        else:
+            raise OutputError(f"{what}: {path} exists and was not written by the engine; "
+                              f"nothing was changed: choose another place")
+
+
+def adopt_files(folder: Path, paths: Sequence[Path]) -> None:
+    """Add files the engine wrote later (plots of a finished run) to a run folder's marker."""
+    marker = read_marker(folder)
+    if marker is None:
+        return
+    rel = {Path(p).resolve().relative_to(Path(folder).resolve()).as_posix() for p in paths}
+    marker["files"] = sorted(set(marker.get("files", [])) | rel)
+    write_text_atomic(Path(folder) / MARKER, json.dumps(marker, indent=2) + "\n")
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary name beside ``path`` and rename it into place."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)

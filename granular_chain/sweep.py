@@ -381,6 +381,23 @@ class SweepStats:
         return d
 
 
+def _check_sweep_folder(out_dir: Path) -> None:
+    """A sweep writes into a new or empty folder, or resumes one holding its own
+    sweep.json; any other folder is the user's and is refused (nothing changed)."""
+    if out_dir.is_symlink() or (out_dir.exists() and not out_dir.is_dir()):
+        raise SweepError(f"--out {out_dir}: is not a folder")
+    if not out_dir.exists() or not any(out_dir.iterdir()):
+        return
+    try:
+        meta = json.loads((out_dir / "sweep.json").read_text())
+    except (OSError, ValueError):
+        meta = None
+    if not isinstance(meta, dict) or "scene_sha256" not in meta:
+        raise SweepError(f"--out {out_dir}: exists and is not a sweep folder (no sweep.json "
+                         f"written by granular-chain sweep); nothing was changed: name a new "
+                         f"folder")
+
+
 def run_sweep(scene_path, axes: Sequence[Axis], *, out_dir, fixed: Sequence[str] = (),
               options: PointOptions = PointOptions(), executor: str = "dask",
               scheduler: Optional[str] = None, workers: int = 2,
@@ -438,6 +455,7 @@ def run_sweep(scene_path, axes: Sequence[Axis], *, out_dir, fixed: Sequence[str]
         raise SweepError("two axes set the same dotted path")
     header = paths + list(QUANTITIES) + _vcols(options.granules)
     out_dir = Path(out_dir)
+    _check_sweep_folder(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     results = out_dir / "results.csv"
     meta_path = out_dir / "sweep.json"

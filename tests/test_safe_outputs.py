@@ -218,3 +218,37 @@ def test_stale_partial_folder_of_a_killed_run_is_cleared(work):
     with_sentinel(user_hidden)
     assert run("--out", "r") == 0
     assert not stale.exists() and (user_hidden / "my_thesis.tex").exists()
+
+
+def test_sweep_refuses_a_user_folder(work, capsys):
+    with_sentinel(work / "results")
+    before = snapshot(work)
+    code = main(["sweep", "scene.yaml", "--grid", "run.t_end=0.1:0.2:2", "--serial",
+                 "--out", "results", "--restart", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "not a sweep folder" in err
+    assert snapshot(work) == before
+
+
+def test_diagnose_out_never_overwrites_a_file(work, capsys):
+    (work / "report.json").write_text("my notes")
+    before = snapshot(work)
+    code = main(["diagnose", "scene.yaml", "--out", "report.json"])
+    err = capsys.readouterr().err
+    assert code == 2 and "report.json exists" in err
+    assert snapshot(work) == before
+
+
+def test_plot_refuses_user_pngs_and_plots_join_the_run(work, capsys):
+    assert run("--out", "r") == 0
+    (work / "figs").mkdir()
+    (work / "figs" / "energy.png").write_bytes(b"my figure")
+    before = snapshot(work)
+    code = main(["plot", "r", "--out", "figs", "--no-render"])
+    assert code == 2 and "figs/energy.png exists" in capsys.readouterr().err
+    assert snapshot(work) == before
+    assert main(["plot", "r", "--no-render"]) == 0
+    assert "plots/energy.png" in read_marker(work / "r")["files"]
+    assert main(["plot", "r", "--no-render"]) == 0  # its own plots may be redrawn
+    assert run("--out", "r", "--overwrite") == 0  # and the run replaced, plots included
+    assert not (work / "r" / "plots").exists()
