@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from dataclasses import dataclass
 from typing import Optional, Union
 
 import numpy as np
@@ -189,27 +190,79 @@ def next_neighbour_overlap(t, x, radius) -> str:
     return ""
 
 
+@dataclass(frozen=True)
+class StepPlan:
+    """The Verlet run's steps: ``steps`` of ``dt``, then one of ``last_dt`` (0: none)
+    so that the run ends exactly at t_end; a frame every ``every`` steps.
+
+    Attributes
+    ----------
+    dt : float
+        Step (the scene's time unit); shortened, when ``output.dt`` is given, to
+        the largest step that divides it, so frames fall on multiples of it.
+    steps : int
+        Whole steps of ``dt`` (``steps * dt`` <= t_end).
+    last_dt : float
+        A final shorter step ending at t_end, or 0 when ``steps * dt`` is t_end
+        to within 1e-9 dt.
+    every : int
+        Steps between frames.
+    note : str
+        What was shortened, for the run's warnings ('' when nothing was).
+    """
+
+    dt: float
+    steps: int
+    last_dt: float
+    every: int
+    note: str
+
+
+def step_plan(model: Model, scene: Scene) -> StepPlan:
+    """Plan the Verlet steps of a scene (see :class:`StepPlan`)."""
+    settings, out = scene.run, scene.output
+    t_end = settings.t_end
+    dt = settings.dt if settings.dt is not None else default_dt(model, t_end)
+    note = ""
+    if out.dt is not None:
+        per_frame = out.dt / dt
+        m = round(per_frame)
+        if m < 1 or abs(m - per_frame) > 1e-9 * per_frame:
+            m = math.ceil(per_frame)
+            shorter = out.dt / m
+            if settings.dt is not None:
+                note = (f"run.dt shortened from {dt:.6g} to {shorter:.6g} so that frames fall "
+                        f"on multiples of output.dt = {out.dt:g}")
+            dt = shorter
+        every = m
+    whole = round(t_end / dt)
+    if whole >= 1 and abs(whole * dt - t_end) <= 1e-9 * dt:
+        steps, last_dt = whole, 0.0
+    else:
+        steps = int(math.floor(t_end / dt))
+        last_dt = t_end - steps * dt
+    if out.every is not None:
+        every = out.every
+    elif out.dt is None:
+        # About 1000 frames, fewer for long chains.
+        frames_wanted = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // max(model.count, 1)))
+        every = max(1, steps // frames_wanted)
+    return StepPlan(dt=dt, steps=steps, last_dt=last_dt, every=every, note=note)
+
+
 def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Result:
     settings = scene.run
     feat = model.features
     N = model.count
     T = model.shortest_period()
-    dt = settings.dt if settings.dt is not None else default_dt(model, settings.t_end)
+    plan = step_plan(model, scene)
+    dt, every, t_end = plan.dt, plan.every, settings.t_end
     if settings.check_dt:
         check_dt(model, dt)
-    t_end = settings.t_end
-    n_total = int(math.ceil(t_end / dt * (1 - 1e-12)))
+    n_total = plan.steps
     limited = n_total > settings.max_steps
     n_total = min(n_total, settings.max_steps)
-    out = scene.output
-    if out.every is not None:
-        every = out.every
-    elif out.dt is not None:
-        every = max(1, int(round(out.dt / dt)))
-    else:
-        # About 1000 frames, fewer for long chains: the frames are kept in memory.
-        frames_wanted = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // max(N, 1)))
-        every = max(1, n_total // frames_wanted)
+    last_dt = plan.last_dt if not limited else 0.0
 
     stops = settings.stop_conditions
     stop_mode = (verlet.STOP_ON_SEPARATION if "separation" in stops else 0) | (
@@ -258,9 +311,14 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     opening_at = _KERNEL_ARGS.index("opening")
     chunk = _Chunk(N)
     next_frame = min(every, n_total)
+    dt_now, short_taken = dt, False
     try:
         with stop_signals() as stop:
-            while steps < n_total:
+            while steps < n_total or (last_dt and not short_taken):
+                if steps == n_total:  # one shorter step ends the run exactly at t_end
+                    short_taken, dt_now = True, last_dt
+                    _begin_short_step(model, args, v, f, vs, ledger, counts, merged, last_dt)
+                    n_total, next_frame = n_total + 1, n_total + 1
                 # A compiled call runs to the next frame or for about CHUNK_SECONDS,
                 # whichever is first; the trajectory does not depend on where calls end.
                 args[n_steps_at] = min(next_frame - steps, chunk.steps)
@@ -269,7 +327,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                     raise RuntimeError("internal error: the Verlet kernel took no step")
                 args[opening_at] = 0
                 steps += taken
-                t_now = steps * dt
+                t_now = t_end if short_taken else steps * dt
                 if bar is not None:
                     bar.update(taken)
                     bar.set_postfix_str(f"t = {t_now:.4g} / {t_end:g}", refresh=False)
@@ -278,7 +336,7 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                 next_frame = min(steps + every, n_total)
                 if merged:
                     sync = verlet.synchronise(v, f, model.eta, model.eta_static, model.inv_mass,
-                                              0.5 * dt, vs)
+                                              0.5 * dt_now, vs)
                     if stop_mode & verlet.STOP_ON_REST and code == verlet.RAN_CHUNK \
                             and not vs.any():
                         # at rest at the frame (the kernel reads rest off the kick
@@ -292,8 +350,8 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                                f"(period or collision time {T:.4g}); reduce run.dt")
                     break
                 if code == verlet.SEPARATED:
-                    t_now = _backtrack_to_separation(model, u, vs, f, ledger, stop_contact, dt,
-                                                     t_now)
+                    t_now = _backtrack_to_separation(model, u, vs, f, ledger, stop_contact,
+                                                     dt_now, t_now)
                     status = Status.SEPARATED
                     message = (f"contact {stop_contact} opened at t = {t_now:.12g} (located "
                                f"inside the step by a second-order backtrack)")
@@ -335,7 +393,8 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
                                f"t = {t_now:.6g} before t_end = {t_end:g}; raise "
                                f"run.max_steps or run.dt")
                 else:
-                    message = f"reached t_end = {t_now:.12g} after {steps} steps"
+                    message = f"reached t_end = {t_now:.12g} after {steps} steps" + (
+                        f" (the last one shortened to {last_dt:.6g})" if short_taken else "")
     finally:
         if bar is not None:
             bar.close()
@@ -343,9 +402,33 @@ def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool]) -> Re
     counts[verlet.EV_STOP] += sync[1]
     counts[verlet.EV_SLIP] += sync[2]
     result = _assemble(frames, model, e0, status, message, steps, wall, dt, counts)
+    if plan.note:
+        result.info.setdefault("warnings", []).append(plan.note)
     if status == Status.INTERRUPTED:
         result.info["signal"] = stop.signum
     return result
+
+
+def _begin_short_step(model: Model, args: list, v, f, vs, ledger, counts, merged: bool,
+                      last_dt: float) -> None:
+    """Set the kernel's arguments for one step of ``last_dt`` (the run's last).
+
+    The drag tables are those of the shorter step. A Coulomb (merged-kick) run
+    first completes its pending half kick (v becomes the synchronised velocity,
+    its work and counts enter the ledger) and restarts the leapfrog with the
+    opening half kick of the new step, exactly as at t = 0.
+    """
+    if merged:
+        work, stops, slips = verlet.synchronise(v, f, model.eta, model.eta_static,
+                                                model.inv_mass, 0.5 * args[_KERNEL_ARGS.index("dt")], vs)
+        v[:] = vs
+        ledger[0] -= work
+        counts[verlet.EV_STOP] += stops
+        counts[verlet.EV_SLIP] += slips
+        args[_KERNEL_ARGS.index("opening")] = 1
+    for name, table in zip(("E", "P1", "P2"), _drift_coefficients(model, last_dt)):
+        args[_KERNEL_ARGS.index(name)] = table
+    args[_KERNEL_ARGS.index("dt")] = last_dt
 
 
 class _Chunk:
