@@ -1,0 +1,112 @@
+"""Output frames: what a driver hands to the writers attached to a run, and keeps.
+
+A driver stops its compiled stepping at the output cadence and records a
+:class:`Frame` in a :class:`FrameLog`. The log passes each frame to the
+attached writers as the run goes (HOOMD-blue's writers on a trigger), keeps the
+energy ledger of every frame (four numbers a frame) and keeps the states
+themselves only when asked: a run that streams its frames to disk holds two
+frames in memory (the first and the latest), whatever the number of frames.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple, Optional, Protocol, Sequence
+
+import numpy as np
+
+__all__ = ["Frame", "FrameWriter", "FrameLog"]
+
+
+class Frame(NamedTuple):
+    """The state at one output frame (arrays are the driver's: copy to keep them).
+
+    Attributes
+    ----------
+    step : int
+        Steps taken (Verlet) or mode segments (event stepper) so far.
+    t : float
+        Time (the scene's unit).
+    x, v, f : ndarray, shape (N,)
+        Centre positions, velocities, net contact forces.
+    kinetic, potential : float
+        Kinetic energy sum(m v^2 / 2) and elastic energy of the contacts.
+    coulomb, viscous : float
+        Energy dissipated so far by kinetic and by hydrodynamic friction.
+    initial : float
+        Kinetic plus elastic energy at t = 0 (the ledger's reference).
+    """
+
+    step: int
+    t: float
+    x: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+    kinetic: float
+    potential: float
+    coulomb: float
+    viscous: float
+    initial: float
+
+    @property
+    def balance_error(self) -> float:
+        """|kinetic + potential + coulomb + viscous - initial| / initial (or absolute at 0)."""
+        err = abs(self.kinetic + self.potential + self.coulomb + self.viscous - self.initial)
+        return err / self.initial if self.initial > 0 else err
+
+
+class FrameWriter(Protocol):
+    """What a writer attached to a run provides."""
+
+    def write_frame(self, frame: Frame) -> None:
+        """Write one frame (called in time order, from the driver's thread)."""
+
+    def close(self, result) -> None:
+        """The run has ended with ``result``: finish the file."""
+
+
+class FrameLog:
+    """The frames of a run: handed to writers as they come, kept as asked.
+
+    Parameters
+    ----------
+    writers : sequence of FrameWriter
+        Called for every frame, in order.
+    keep : bool
+        Keep every frame in memory for the Result; when false only the first
+        and the latest are kept, so memory does not grow with the number of
+        frames (the writers have them all), and the largest ledger error over
+        every frame is tracked in :attr:`max_balance_error`.
+    """
+
+    _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous")
+
+    def __init__(self, writers: Sequence[FrameWriter] = (), keep: bool = True):
+        self.writers = list(writers)
+        self.keep = keep
+        self.kept = {name: [] for name in self._FIELDS}
+        self.count = 0
+        self.max_balance_error = 0.0
+
+    def record(self, frame: Frame) -> None:
+        for w in self.writers:
+            w.write_frame(frame)
+        self.count += 1
+        self.max_balance_error = max(self.max_balance_error, frame.balance_error)
+        replace = not self.keep and self.count > 2  # keep the first, replace the latest
+        for name in self._FIELDS:
+            value = getattr(frame, name)
+            if isinstance(value, np.ndarray):
+                value = value.copy()
+            if replace:
+                self.kept[name][-1] = value
+            else:
+                self.kept[name].append(value)
+
+    def array(self, name: str) -> np.ndarray:
+        """A kept field over the kept frames: shape (F,) or (F, N)."""
+        return np.array(self.kept[name])
+
+    def close(self, result) -> None:
+        """Tell every writer the run has ended."""
+        for w in self.writers:
+            w.close(result)

@@ -1,0 +1,511 @@
+"""The Verlet driver: compiled chunks of steps between output frames.
+
+Python runs only between compiled calls (:func:`.verlet.verlet_chunk`): it
+records frames (handing them to the writers attached to the run), checks the
+state for NaN/Inf, runaway energy and passing granules at the output cadence,
+prints thermo lines, updates the progress bar, honours stop requests (SIGINT,
+SIGTERM) and decides when to stop. A call runs to the next frame or for about
+:data:`~granular_chain.interrupts.CHUNK_SECONDS`, whichever comes first; where
+calls end never changes the trajectory.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from .._compile import specialised
+from ..errors import SimulationError
+from ..forces import net_forces
+from ..frames import Frame, FrameLog
+from ..interrupts import CHUNK_SECONDS, stop_signals
+from ..laws.friction import drift_tables
+from ..model import Model
+from ..result import OVERLAP_ADVICE, EnergyLedger, Result, Status
+from ..units import scaled_parameters
+from . import verlet
+
+__all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt"]
+
+# Velocity Verlet on a linear contact of period T is unstable for dt > T/pi.
+_STABILITY_FRACTION = 1.0 / math.pi
+_DEFAULT_STEPS_PER_PERIOD = 200
+_DEFAULT_FRAMES = 1000
+_DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
+_UNSTABLE_BALANCE = 1.0
+_KERNEL_PY = getattr(verlet.verlet_chunk, "py_func", verlet.verlet_chunk)  # NUMBA_DISABLE_JIT
+_KERNEL_ARGS = _KERNEL_PY.__code__.co_varnames[:_KERNEL_PY.__code__.co_argcount]
+_ARG = {name: i for i, name in enumerate(_KERNEL_ARGS)}
+
+
+def default_dt(model: Model, t_end: float = math.inf) -> float:
+    """1/200 of the shortest contact period (or collision time), at most t_end/100,
+    shortened so that a whole number of steps ends exactly at a finite t_end."""
+    T = model.shortest_period()
+    dt = T / _DEFAULT_STEPS_PER_PERIOD if math.isfinite(T) else 1e-2
+    dt = min(dt, t_end / 100)
+    if math.isfinite(t_end):
+        dt = t_end / math.ceil(t_end / dt * (1 - 1e-12))
+    return dt
+
+
+def check_dt(model: Model, dt: float) -> None:
+    """Refuse a Verlet step the stiffest contact cannot take (SimulationError names run.dt)."""
+    T = model.shortest_period()
+    if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+        raise SimulationError(
+            f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
+            f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
+            f"use dt <= {T / 50:.3g} for accuracy")
+
+
+def _drift_coefficients(model: Model, dt: float):
+    cv = model.gamma * model.inv_mass
+    E, P1, P2 = np.empty_like(cv), np.empty_like(cv), np.empty_like(cv)
+    drift_tables(cv, dt, E, P1, P2)
+    return E, P1, P2
+
+
+def _net_forces(model: Model, u, c, f):
+    feat = model.features
+    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, model.d0, model.k,
+            model.n, model.walls, c, f)
+    specialised(net_forces, args, (0, 1, 2))(*args)
+
+
+@dataclass(frozen=True)
+class StepPlan:
+    """The Verlet run's steps: ``steps`` of ``dt``, then one of ``last_dt`` (0: none)
+    so that the run ends exactly at t_end; a frame every ``every`` steps.
+
+    Attributes
+    ----------
+    dt : float
+        Step (the scene's time unit); shortened, when ``output.dt`` is given, to
+        the largest step that divides it, so frames fall on multiples of it.
+    steps : int
+        Whole steps of ``dt`` (``steps * dt`` <= t_end).
+    last_dt : float
+        A final shorter step ending at t_end, or 0 when ``steps * dt`` is t_end
+        to within 1e-9 dt.
+    every : int
+        Steps between frames.
+    note : str
+        What was shortened, for the run's warnings ('' when nothing was).
+    """
+
+    dt: float
+    steps: int
+    last_dt: float
+    every: int
+    note: str
+
+
+def step_plan(model: Model, scene: Scene) -> StepPlan:
+    """Plan the Verlet steps of a scene (see :class:`StepPlan`)."""
+    settings, out = scene.run, scene.output
+    t_end = settings.t_end
+    dt = settings.dt if settings.dt is not None else default_dt(model, t_end)
+    note = ""
+    if out.dt is not None:
+        per_frame = out.dt / dt
+        m = round(per_frame)
+        if m < 1 or abs(m - per_frame) > 1e-9 * per_frame:
+            m = math.ceil(per_frame)
+            shorter = out.dt / m
+            if settings.dt is not None:
+                note = (f"run.dt shortened from {dt:.6g} to {shorter:.6g} so that frames fall "
+                        f"on multiples of output.dt = {out.dt:g}")
+            dt = shorter
+        every = m
+    whole = round(t_end / dt)
+    if whole >= 1 and abs(whole * dt - t_end) <= 1e-9 * dt:
+        steps, last_dt = whole, 0.0
+    else:
+        steps = int(math.floor(t_end / dt))
+        last_dt = t_end - steps * dt
+    if out.every is not None:
+        every = out.every
+    elif out.dt is None:
+        # About 1000 frames, fewer for long chains.
+        frames_wanted = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // max(model.count, 1)))
+        every = max(1, steps // frames_wanted)
+    return StepPlan(dt=dt, steps=steps, last_dt=last_dt, every=every, note=note)
+
+
+class VerletRun:
+    """One velocity-Verlet run of a model: built once, then :meth:`run`.
+
+    Parameters
+    ----------
+    scene : Scene
+        Its ``run`` (t_end, stop conditions, max_steps) and ``output`` (cadence).
+    model : Model
+        The packed chain (:func:`granular_chain.model.build_model`).
+    progress : bool, optional
+        Progress bar (default: on a terminal, for runs longer than ~2 s).
+    log : FrameLog, optional
+        Where the output frames go; default: all kept in memory, no writers.
+    thermo : writer with ``every`` (steps) and ``write_frame(frame)``, optional
+        Called on its own cadence (LAMMPS' ``thermo N``), besides the frames.
+    """
+
+    def __init__(self, scene, model: Model, progress: Optional[bool] = None,
+                 log: Optional[FrameLog] = None, thermo=None):
+        settings = scene.run
+        self.model, self.thermo = model, thermo
+        self.log = log if log is not None else FrameLog()
+        self.plan = plan = step_plan(model, scene)
+        if settings.check_dt:
+            check_dt(model, plan.dt)
+        self.t_end, self.max_steps = settings.t_end, settings.max_steps
+        self.limited = plan.steps > settings.max_steps
+        self.n_total = min(plan.steps, settings.max_steps)
+        self.last_dt = 0.0 if self.limited else plan.last_dt
+        stops = settings.stop_conditions
+        self.stop_mode = (verlet.STOP_ON_SEPARATION if "separation" in stops else 0) | (
+            verlet.STOP_ON_REST if "rest" in stops else 0)
+        self.stop_contact = settings.stop_contact if model.count > 1 else 0
+        self._init_state()
+        self.bar = _progress_bar(progress, self.n_total)
+
+    def _init_state(self) -> None:
+        model, N, dt = self.model, self.model.count, self.plan.dt
+        self.u, self.v, self.f = np.zeros(N), model.v0.copy(), np.zeros(N)
+        c = np.zeros(max(N - 1, 1))
+        _net_forces(model, self.u, c, self.f)
+        active = (c[: max(N - 1, 0)] > 0).astype(np.uint8)
+        if active.size == 0:
+            active = np.zeros(1, dtype=np.uint8)
+        E, P1, P2 = _drift_coefficients(model, dt)
+        self.ledger, self.counts = np.zeros(2), np.zeros(4, dtype=np.int64)
+        # With Coulomb friction the kernel merges kicks (leapfrog form) and v holds
+        # half-step velocities between calls; vs gets the synchronised ones for the
+        # frames, and sync the half kick's work and counts that the ledger and the
+        # counts lack at the frame's time.
+        self.merged = bool(model.features.coulomb)
+        self.vs = self.v.copy() if self.merged else self.v  # synchronised at t = 0
+        self.sync = (0.0, 0, 0)
+        feat = model.features
+        self.args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
+                     int(feat.right_wall), self.stop_mode, _uniform_code(model, feat, E, P1, P2),
+                     self.u, self.v, self.f, active, model.d0, model.k, model.n, model.walls,
+                     model.mass, model.inv_mass, model.eta, model.eta_static, E, P1, P2, dt,
+                     0, 1, self.stop_contact, self.ledger, self.counts, *_overlap_caps(model)]
+        self.kernel = specialised(verlet.verlet_chunk, tuple(self.args), (0, 1, 2, 3, 4, 5, 6))
+        self.limits = _overlap_limits(model)
+        ke0, pe0 = model.energies(self.u, self.v)
+        self.e0 = ke0 + pe0
+        self.steps, self.t_now, self.dt_now = 0, 0.0, dt
+        self.short_taken = False
+
+    def frame(self) -> Frame:
+        """The synchronised state at the current time, with its ledger."""
+        ke, pe = self.model.energies(self.u, self.vs)
+        return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
+                     self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
+
+    def run(self) -> Result:
+        """Step to t_end or a stop condition; the Result of the run."""
+        start = time.perf_counter()
+        self.log.record(self.frame())
+        try:
+            with stop_signals() as stop:
+                status, message = self._loop(stop)
+        finally:
+            if self.bar is not None:
+                self.bar.close()
+        self.counts[verlet.EV_STOP] += self.sync[1]
+        self.counts[verlet.EV_SLIP] += self.sync[2]
+        result = _assemble(self.log, self.model, self.e0, status, message, self.steps,
+                           time.perf_counter() - start, self.plan.dt, self.counts)
+        if self.plan.note:
+            result.info.setdefault("warnings", []).append(self.plan.note)
+        if status == Status.INTERRUPTED:
+            result.info["signal"] = stop.signum
+        self.log.close(result)
+        return result
+
+    def _loop(self, stop):
+        every = self.plan.every
+        thermo_every = self.thermo.every if self.thermo is not None else 0
+        chunk = _Chunk(self.model.count)
+        next_frame = min(every, self.n_total)
+        next_thermo = thermo_every or math.inf
+        while self.steps < self.n_total or (self.last_dt and not self.short_taken):
+            if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
+                self._begin_short_step()
+                next_frame = self.n_total
+            # A compiled call runs to the next frame or thermo line, or for about
+            # CHUNK_SECONDS, whichever is first.
+            target = min(next_frame, next_thermo, self.steps + chunk.steps)
+            code = self._advance(chunk, int(target) - self.steps)
+            at_frame = self.steps >= next_frame or code != verlet.RAN_CHUNK or stop.requested
+            at_thermo = self.steps >= next_thermo
+            if not (at_frame or at_thermo):
+                continue
+            code = self._synchronise(code)
+            ended = self._check(code)
+            if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
+                                                  Status.UNSTABLE):
+                return ended
+            frame = self.frame()
+            if self.thermo is not None and (at_thermo or ended is not None):
+                self.thermo.write_frame(frame)
+                next_thermo = self.steps + thermo_every if thermo_every else math.inf
+            if not at_frame:
+                continue
+            self.log.record(frame)
+            next_frame = min(self.steps + every, self.n_total)
+            if ended is not None:
+                return ended
+            if stop.requested:
+                return Status.INTERRUPTED, (
+                    f"interrupted by {stop.name} at t = {self.t_now:.12g} after {self.steps} "
+                    f"of {self.n_total} steps; the frames up to then are kept")
+        if self.limited:
+            return Status.MAX_STEPS, (
+                f"stopped after run.max_steps = {self.max_steps} steps at t = {self.t_now:.6g} "
+                f"before t_end = {self.t_end:g}; raise run.max_steps or run.dt")
+        shortened = f" (the last one shortened to {self.last_dt:.6g})" if self.short_taken else ""
+        return Status.T_END, f"reached t_end = {self.t_now:.12g} after {self.steps} steps{shortened}"
+
+    def _advance(self, chunk, n_steps: int) -> int:
+        self.args[_ARG["n_steps"]] = n_steps
+        taken, code = chunk.call(self.kernel, self.args)
+        if taken == 0:  # a call always advances; guard against an endless loop
+            raise RuntimeError("internal error: the Verlet kernel took no step")
+        self.args[_ARG["opening"]] = 0
+        self.steps += taken
+        self.t_now = self.t_end if self.short_taken else self.steps * self.plan.dt
+        if self.bar is not None:
+            self.bar.update(taken)
+            self.bar.set_postfix_str(f"t = {self.t_now:.4g} / {self.t_end:g}", refresh=False)
+        return code
+
+    def _begin_short_step(self) -> None:
+        self.short_taken, self.dt_now = True, self.last_dt
+        _begin_short_step(self.model, self.args, self.v, self.f, self.vs, self.ledger,
+                          self.counts, self.merged, self.last_dt)
+        self.n_total += 1
+
+    def _synchronise(self, code: int) -> int:
+        """Synchronise a merged-kick run's velocities (into vs); rest read off them."""
+        if self.merged:
+            m = self.model
+            self.sync = verlet.synchronise(self.v, self.f, m.eta, m.eta_static, m.inv_mass,
+                                           0.5 * self.dt_now, self.vs)
+            if self.stop_mode & verlet.STOP_ON_REST and code == verlet.RAN_CHUNK \
+                    and not self.vs.any():
+                # at rest here (the kernel reads rest off the kick after the time
+                # it holds, i.e. the next call's first step)
+                code = verlet.AT_REST
+        return code
+
+    def _check(self, code: int):
+        """(status, message) when the run ends here, else None."""
+        model, u, vs, dt, T = self.model, self.u, self.vs, self.plan.dt, self.model.shortest_period()
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(vs))):
+            bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(vs)))[0])
+            return Status.NONFINITE, (
+                f"non-finite state by t = {self.t_now:.6g} at granule {bad}: the step dt = "
+                f"{dt:g} is likely too large for the stiffest contact (period or collision time "
+                f"{T:.4g}); reduce run.dt")
+        ended = None
+        if code == verlet.SEPARATED:
+            self.t_now = _backtrack_to_separation(model, u, vs, self.f, self.ledger,
+                                                  self.stop_contact, self.dt_now, self.t_now)
+            ended = Status.SEPARATED, (
+                f"contact {self.stop_contact} opened at t = {self.t_now:.12g} (located inside "
+                f"the step by a second-order backtrack)")
+        elif code == verlet.AT_REST:
+            ended = Status.AT_REST, (
+                f"every granule at rest (held by static friction) at t = {self.t_now:.12g}")
+        problem = _overlap_problem(model, u, self.limits)
+        if problem:
+            message = f"{problem} at t = {self.t_now:.6g}; " + OVERLAP_ADVICE
+            if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+                message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
+                            f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
+            return Status.OVERLAP, message
+        ke, pe = model.energies(u, vs)
+        balance = abs(ke + pe + self.ledger[0] - self.sync[0] + self.ledger[1] - self.e0)
+        if self.e0 > 0 and not balance <= _UNSTABLE_BALANCE * self.e0:
+            # A stable run balances its ledger to O(dt^2); an error as large
+            # as the initial energy itself means the integration blew up.
+            return Status.UNSTABLE, (
+                f"energy ledger off by {balance / self.e0:.3g} x the initial energy at "
+                f"t = {self.t_now:.6g}: the integration is unstable; reduce run.dt (now "
+                f"{dt:g}; stiffest contact time {T:.4g})")
+        return ended
+
+
+def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt, counts):
+    """The Result of a Verlet run from its frame log."""
+    energy = EnergyLedger(
+        kinetic=log.array("kinetic"), potential=log.array("potential"),
+        coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0)
+    x, v = log.array("x"), log.array("v")
+    counts_d = dict(zip(verlet.EVENT_KINDS, (int(n) for n in counts)))
+    info = {"features": model.features.describe(), "granules": model.count,
+            "units": model.units, "frames": log.count}
+    if not log.keep:
+        info["frames_kept"] = "first and last (the others were streamed to the writers)"
+        info["max_balance_error_relative"] = log.max_balance_error
+    if model.units == "physical":
+        info["scaled"] = scaled_parameters(model)
+    t = log.array("t")
+    return Result(
+        t=t, x=x, v=v, f=log.array("f"), energy=energy, status=status,
+        message=message, steps=steps, wall_time=wall, stepper="verlet", dt=dt,
+        t_final=float(t[-1]), x_final=x[-1].copy(), v_final=v[-1].copy(),
+        event_counts=counts_d, info=info)
+
+def _begin_short_step(model: Model, args: list, v, f, vs, ledger, counts, merged: bool,
+                      last_dt: float) -> None:
+    """Set the kernel's arguments for one step of ``last_dt`` (the run's last).
+
+    The drag tables are those of the shorter step. A Coulomb (merged-kick) run
+    first completes its pending half kick (v becomes the synchronised velocity,
+    its work and counts enter the ledger) and restarts the leapfrog with the
+    opening half kick of the new step, exactly as at t = 0.
+    """
+    if merged:
+        work, stops, slips = verlet.synchronise(v, f, model.eta, model.eta_static,
+                                                model.inv_mass, 0.5 * args[_KERNEL_ARGS.index("dt")], vs)
+        v[:] = vs
+        ledger[0] -= work
+        counts[verlet.EV_STOP] += stops
+        counts[verlet.EV_SLIP] += slips
+        args[_KERNEL_ARGS.index("opening")] = 1
+    for name, table in zip(("E", "P1", "P2"), _drift_coefficients(model, last_dt)):
+        args[_KERNEL_ARGS.index(name)] = table
+    args[_KERNEL_ARGS.index("dt")] = last_dt
+
+
+class _Chunk:
+    """Steps per compiled call, adapted so that a call returns within about
+    :data:`~granular_chain.interrupts.CHUNK_SECONDS`: a stop request is then
+    honoured promptly whatever the chain length or the output cadence.
+
+    Parameters
+    ----------
+    count : int
+        Granules N; the first call takes about 2e6 granule-steps (a few ms).
+    """
+
+    def __init__(self, count: int):
+        self.steps = max(1, 2_000_000 // max(count, 1))
+
+    def call(self, kernel, args):
+        """Call the kernel once and adapt :attr:`steps` to its measured rate
+        (changing by at most 4x a call, so one slow call, such as the first,
+        which may compile, does not swing it)."""
+        begin = time.perf_counter()
+        taken, code = kernel(*args)
+        elapsed = time.perf_counter() - begin
+        if taken > 0:
+            target = taken * CHUNK_SECONDS / max(elapsed, 1e-6)
+            self.steps = int(max(1, self.steps / 4, min(target, 4 * self.steps)))
+        return taken, code
+
+
+def _uniform_code(model: Model, feat, E, P1, P2) -> int:
+    """Kernel feature code: verlet.UNIFORM when every granule has the same
+    parameters and every contact the same (d0, k, n), so the single sweep reads
+    scalars and streams only u, v, f; verlet.UNIT when moreover m = k = 1 and
+    d0 = 0 (the scaled touching chain), compiled in as constants. Only the sweep
+    (scenes without Coulomb friction) uses it; PER_GRANULE otherwise, so that
+    Coulomb scenes do not compile a second, identical specialisation."""
+    if feat.coulomb:
+        return verlet.PER_GRANULE
+    arrays = (model.mass, model.inv_mass, E, P1, P2, model.d0, model.k, model.n)
+    if not all(a.size == 0 or bool(np.all(a == a[0])) for a in arrays):
+        return verlet.PER_GRANULE
+    unit = all(a.size == 0 or a[0] == value
+               for a, value in ((model.mass, 1.0), (model.k, 1.0), (model.d0, 0.0)))
+    return verlet.UNIT if unit and model.count > 1 else verlet.UNIFORM
+
+
+def _overlap_limits(model: Model):
+    """Overlaps at which centres meet: r_i + r_(i+1) for contacts, r for a wall's granule."""
+    r = model.radius
+    return r[:-1] + r[1:], r[0], r[-1]
+
+
+def _overlap_caps(model: Model):
+    """Kernel form of the limits: olim (N + 1,) (left wall, contacts, right wall)
+    and the smallest contact force at which a contact reaches its limit."""
+    lim, left, right = _overlap_limits(model)
+    olim = np.concatenate(([left], lim, [right]))
+    with np.errstate(over="ignore"):
+        f_at = model.k * lim ** (model.n - 1.0)
+    fcap = float(np.min(f_at)) if f_at.size else math.inf
+    return olim, fcap
+
+
+def _overlap_problem(model: Model, u, limits) -> str:
+    """Describe the first contact whose granules have passed each other, or ''.
+
+    Checked at the output cadence. An overlap of r_i + r_(i+1) puts two centres
+    on top of each other: beyond it the granules are in the wrong order (a
+    crossing between two frames leaves them so), and the one-sided contact
+    model no longer describes the scene.
+    """
+    lim, left, right = limits
+    if model.count > 1:
+        delta = model.d0 + u[:-1] - u[1:]
+        bad = np.flatnonzero(delta >= lim)
+        if bad.size:
+            i = int(bad[0])
+            return (f"contact {i} overlaps by {delta[i]:.4g}, not less than the sum of the "
+                    f"radii {lim[i]:.4g}")
+    w = model.walls
+    if model.features.left_wall and w[0] - u[0] >= left:
+        return f"granule 0 overlaps the left wall by {w[0] - u[0]:.4g}, more than its radius"
+    if model.features.right_wall and w[3] + u[-1] >= right:
+        return (f"granule {model.count - 1} overlaps the right wall by {w[3] + u[-1]:.4g}, "
+                f"more than its radius")
+    return ""
+
+
+def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):
+    """Move the state back from the end of the step to the moment contact i opened.
+
+    After opening, the overlap falls linearly at the relative speed to first
+    order, so the opening happened tau = -delta / (v_(i+1) - v_i) ago (clamped
+    to the step). Each granule is moved back along its acceleration at the end
+    of the step (spring, Coulomb and viscous), a second-order Taylor step, and
+    the friction work done in tau is taken off the ledger.
+    """
+    delta = model.d0[i] + u[i] - u[i + 1]
+    w = v[i + 1] - v[i]
+    tau = 0.0 if w <= 0 else min(max(-delta / w, 0.0), dt)
+    if tau == 0.0:
+        return t_now
+    s = np.sign(v)
+    acc = (f - model.eta * s - model.gamma * v) * model.inv_mass
+    acc[v == 0.0] = 0.0  # a granule at rest at the end of the step was stuck during tau
+    ledger[0] -= tau * float(np.dot(model.eta, np.abs(v)))
+    ledger[1] -= tau * float(np.dot(model.gamma, v * v))
+    u -= tau * v - 0.5 * tau * tau * acc
+    v -= tau * acc
+    _net_forces(model, u, np.zeros(max(model.count - 1, 1)), f)
+    return t_now - tau
+
+
+def _progress_bar(progress: Optional[bool], total: int):
+    if progress is False:
+        return None
+    if progress is None and not sys.stderr.isatty():
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, desc="simulating", unit="step", unit_scale=True, mininterval=0.5, delay=2.0,
+                file=sys.stderr, leave=False)
+
+
