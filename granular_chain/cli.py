@@ -95,14 +95,46 @@ def _apply_writer_flags(scene, args) -> None:
             setattr(scene.output, name, flag)
 
 
-def _write_outputs(result, folder: Path, scene, progress: bool, stop) -> list[str]:
-    """Every writer the scene asks for, summary.json last; returns the writers a
-    stop request skipped or cut short.
+class _Attached:
+    """The writers attached to one run (they write while it goes), and what is
+    left to write once it has ended."""
 
-    The trajectory and the tables take a fraction of a second and are always
-    written, so an interrupted run keeps what it computed; the VTK series and
-    the plots can take long and are skipped once a stop is asked for
-    (``granular-chain plot RUN_DIR`` draws the plots later).
+    def __init__(self, scene, model, folder: Path, echo: bool):
+        from .writers.thermo import ThermoLog, thermo_every
+
+        out, run = scene.output, scene.run
+        self.writers = []
+        if out.csv:
+            from .writers.tables import EnergyTable
+            self.writers.append(EnergyTable(folder))
+        if out.vtk:
+            from .writers.vtk import VTKFrames
+            self.writers.append(VTKFrames(folder, model))
+        path = folder / "thermo.csv"
+        if run.stepper == "verlet":
+            from .simulate import step_plan
+            steps = step_plan(model, scene).steps
+            self.thermo = ThermoLog(model, thermo_every(steps, out.thermo), path, echo)
+        else:  # the event stepper hands its frames on after the run: thin them in time
+            self.thermo = ThermoLog(model, 0, path, echo, dt=run.t_end / 20)
+            self.writers.append(self.thermo)
+        # The trajectory and the plots read the frames from the Result.
+        self.keep_frames = True
+
+    def close(self) -> None:
+        self.thermo.close()
+        for w in self.writers:
+            w.close()
+
+
+def _write_outputs(result, folder: Path, scene, stop) -> list[str]:
+    """What is written once the run has ended, summary.json last; returns the
+    writers a stop request skipped.
+
+    The trajectory and the event table take a fraction of a second and are
+    always written, so an interrupted run keeps what it computed; the plots can
+    take long and are skipped once a stop is asked for (``granular-chain plot
+    RUN_DIR`` draws them later).
     """
     out = scene.output
     missed = []
@@ -110,15 +142,8 @@ def _write_outputs(result, folder: Path, scene, progress: bool, stop) -> list[st
         from .writers.trajectory import write_trajectory
         write_trajectory(result, folder, scene)
     if out.csv:
-        from .writers.tables import write_tables
-        write_tables(result, folder, scene)
-    if out.vtk and stop.requested:
-        missed.append("vtk")
-    elif out.vtk:
-        from .writers.vtk import write_vtk
-        write_vtk(result, folder, scene, progress=progress, should_stop=lambda: stop.requested)
-        if stop.requested:
-            missed.append("vtk")
+        from .writers.tables import write_events_csv
+        write_events_csv(result, folder)
     if out.plots and stop.requested:
         missed.append("plots")
     elif out.plots:
@@ -160,19 +185,25 @@ def cmd_run(args) -> int:
         _apply_writer_flags(scene, args)
         out, is_default = _output_folder(args, scene)
         check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
-        preflight(scene)
+        model = preflight(scene)
     except (SceneError, OutputError) as exc:
         return _fail(str(exc))
     except SimulationError as exc:
         return _fail(f"{args.scene}: {exc}")
+    echo = not args.quiet
     about = {"scene_name": scene.name, "scene_source": str(Path(args.scene).resolve()),
              "overrides": list(args.overrides), "stepper": scene.run.stepper}
     with stop_signals() as stop:
         try:
             with RunFolder(out, about) as folder:
-                result = simulate(scene, progress=None if not args.quiet else False)
-                missed = _write_outputs(result, folder.tmp, scene,
-                                        (not args.quiet) and sys.stderr.isatty(), stop)
+                attached = _Attached(scene, model, folder.tmp, echo)
+                try:
+                    # thermo lines are the progress report; no bar beside them
+                    result = simulate(scene, progress=False, writers=attached.writers,
+                                      keep_frames=attached.keep_frames, thermo=attached.thermo)
+                finally:
+                    attached.close()
+                missed = _write_outputs(result, folder.tmp, scene, stop)
                 reason = _incomplete_reason(result, stop, missed)
                 folder.publish(complete=not reason, reason=reason)
         except OutputError as exc:

@@ -135,6 +135,11 @@ class Output(_Strict):
     plots: bool = Field(
         False, description="Write PNG plots into plots/ (space-time velocity diagram, energy "
         "ledger, granule velocities, a rendered frame).")
+    thermo: Optional[int] = Field(
+        None, ge=1, description="Steps between thermo lines (t, energies, dissipated energy, "
+        "ledger error, closed contacts, sliding granules) printed by granular-chain run and "
+        "saved as thermo.csv; default about 20 lines a run. The event stepper writes a line "
+        "at its first frame after each 1/20 of t_end.")
 
 
 class Run(_Strict):

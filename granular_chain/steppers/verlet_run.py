@@ -213,7 +213,10 @@ class VerletRun:
     def run(self) -> Result:
         """Step to t_end or a stop condition; the Result of the run."""
         start = time.perf_counter()
-        self.log.record(self.frame())
+        first = self.frame()
+        self.log.record(first)
+        if self.thermo is not None:
+            self.thermo.write_frame(first)
         try:
             with stop_signals() as stop:
                 status, message = self._loop(stop)

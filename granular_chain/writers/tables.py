@@ -28,7 +28,8 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["write_energy_csv", "write_events_csv", "write_tables", "ENERGY_COLUMNS"]
+__all__ = ["write_energy_csv", "write_events_csv", "write_tables", "ENERGY_COLUMNS",
+           "EnergyTable"]
 
 ENERGY_COLUMNS = ("t", "kinetic", "potential", "coulomb", "viscous", "balance")
 
@@ -42,6 +43,28 @@ def write_energy_csv(result, folder) -> Path:
     np.savetxt(path, table, delimiter=",", fmt="%.17g", header=",".join(ENERGY_COLUMNS),
                comments="")
     return path
+
+
+class EnergyTable:
+    """``energy.csv`` written frame by frame as the run goes (a frame writer).
+
+    The rows are those :func:`write_energy_csv` writes from a finished Result,
+    to the last bit.
+    """
+
+    def __init__(self, folder):
+        self.path = Path(folder) / "energy.csv"
+        self._fh = self.path.open("w")
+        self._fh.write(",".join(ENERGY_COLUMNS) + "\n")
+
+    def write_frame(self, frame) -> None:
+        balance = frame.kinetic + frame.potential + frame.coulomb + frame.viscous - frame.initial
+        values = (frame.t, frame.kinetic, frame.potential, frame.coulomb, frame.viscous, balance)
+        self._fh.write(",".join("%.17g" % v for v in values) + "\n")
+
+    def close(self, result=None) -> None:
+        if not self._fh.closed:
+            self._fh.close()
 
 
 def write_events_csv(result, folder) -> Optional[Path]:

@@ -39,13 +39,14 @@ time series are XDMF). The frames themselves are written by VTK's
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 from typing import Optional
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-__all__ = ["contact_overlap_force", "friction_state", "VTKSeriesWriter", "write_vtk",
+__all__ = ["contact_overlap_force", "friction_state", "VTKSeriesWriter", "VTKFrames", "write_vtk",
            "FRAME_DIR", "PVD_NAME"]
 
 FRAME_DIR = "vtk"
@@ -248,3 +249,34 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
                 break
             series.write_frame(float(result.t[i]), result.x[i], result.v[i], result.f[i])
     return Path(folder) / PVD_NAME
+
+
+class VTKFrames:
+    """The VTK series as a frame writer attached to a run (frames written as they come).
+
+    The ``.pvd`` index is rewritten after each of the first 100 frames and then
+    at most once a second (and at the end), so it is valid at every moment and
+    ParaView can follow a running job.
+
+    Parameters
+    ----------
+    folder : path
+        Output folder (``run.pvd`` and ``vtk/``).
+    model : Model
+        Radii, masses, contact constants and static friction of the chain.
+    """
+
+    def __init__(self, folder, model, *, compression: Optional[str] = "zlib"):
+        self.series = VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
+                                      model.eta_static, compression=compression)
+        self._indexed = -1.0
+
+    def write_frame(self, frame) -> None:
+        self.series.write_frame(frame.t, frame.x, frame.v, frame.f)
+        now = time.monotonic()
+        if len(self.series._entries) <= 100 or now - self._indexed >= 1.0:
+            self.series.write_index()
+            self._indexed = now
+
+    def close(self, result=None) -> None:
+        self.series.write_index()

@@ -1,0 +1,123 @@
+"""The thermo log (LAMMPS' ``thermo N``): a line of run-wide numbers every few steps.
+
+Each line holds the step, the time, the kinetic and elastic energy, the energy
+dissipated so far (Coulomb plus viscous), the energy ledger's relative error,
+the number of closed contacts (walls included) and the number of granules
+sliding (moving granules that feel Coulomb friction). The lines go to
+``thermo.csv`` as the run goes and, when asked, to the terminal: a table with
+a header (rich) on a terminal, plain aligned lines otherwise.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import sys
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+__all__ = ["ThermoLog", "COLUMNS", "thermo_every"]
+
+COLUMNS = ("step", "t", "kinetic", "potential", "dissipated", "ledger_error",
+           "contacts_closed", "sliding")
+_LINES_BY_DEFAULT = 20
+
+
+def thermo_every(steps: int, every: Optional[int]) -> int:
+    """Steps between thermo lines: ``every`` when given, else about 20 lines a run."""
+    if every is not None:
+        return int(every)
+    return max(1, math.ceil(steps / _LINES_BY_DEFAULT))
+
+
+class ThermoLog:
+    """Thermo lines of one run, written to ``thermo.csv`` and optionally printed.
+
+    Parameters
+    ----------
+    model : Model
+        For the radii, walls and friction of the granules.
+    every : int
+        Steps between lines (the Verlet driver calls :meth:`write_frame` on this
+        cadence; frames handed on by the event stepper are thinned to ``dt``).
+    path : Path, optional
+        ``thermo.csv`` (None: not saved).
+    echo : bool
+        Print each line to standard output.
+    dt : float, optional
+        Simulated time between lines for frames handed on as they come (event
+        stepper): a frame is written when at least ``dt`` after the last one.
+    """
+
+    def __init__(self, model, every: int, path: Optional[Path] = None, echo: bool = False,
+                 dt: Optional[float] = None):
+        self.every, self.dt = every, dt
+        self._model = model
+        self._contact_reach = model.radius[:-1] + model.radius[1:]
+        self._coulomb = model.eta_static > 0
+        self._last_t = -math.inf
+        self._fh = open(path, "w", newline="") if path is not None else None
+        self._csv = csv.writer(self._fh) if self._fh is not None else None
+        if self._csv is not None:
+            self._csv.writerow(COLUMNS)
+        self._echo = _Echo() if echo else None
+
+    def row(self, frame) -> tuple:
+        """The thermo values of one frame, in the order of :data:`COLUMNS`."""
+        x = frame.x
+        closed = int(np.count_nonzero(self._contact_reach - np.diff(x) > 0.0))
+        m = self._model
+        if m.features.left_wall or m.features.right_wall:
+            u = x - m.x0
+            w = m.walls
+            closed += int(m.features.left_wall and w[0] - u[0] > 0.0)
+            closed += int(m.features.right_wall and w[3] + u[-1] > 0.0)
+        sliding = int(np.count_nonzero(self._coulomb & (frame.v != 0.0)))
+        return (frame.step, frame.t, frame.kinetic, frame.potential,
+                frame.coulomb + frame.viscous, frame.balance_error, closed, sliding)
+
+    def write_frame(self, frame) -> None:
+        if self.dt is not None and frame.t < self._last_t + self.dt:
+            return
+        self._last_t = frame.t
+        row = self.row(frame)
+        if self._csv is not None:
+            self._csv.writerow([repr(float(v)) if isinstance(v, float) else v for v in row])
+            self._fh.flush()
+        if self._echo is not None:
+            self._echo.line(row)
+
+    def close(self, result=None) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+
+class _Echo:
+    """Thermo lines on standard output: a rich table row on a terminal, else plain."""
+
+    _WIDTHS = (10, 12, 12, 12, 12, 10, 8, 8)
+
+    def __init__(self):
+        self._rich = None
+        if sys.stdout.isatty():
+            from rich.console import Console
+            self._rich = Console(highlight=False)
+        header = "".join(f"{name:>{w}}" for name, w in zip(
+            ("step", "t", "kinetic", "potential", "dissipated", "ledger", "closed", "sliding"),
+            self._WIDTHS))
+        if self._rich is not None:
+            self._rich.print(f"[bold]{header}[/bold]")
+        else:
+            print(header, flush=True)
+
+    def line(self, row) -> None:
+        step, t, ke, pe, diss, err, closed, sliding = row
+        text = (f"{step:>10d}{t:>12.5g}{ke:>12.5g}{pe:>12.5g}{diss:>12.5g}{err:>10.2e}"
+                f"{closed:>8d}{sliding:>8d}")
+        if self._rich is not None:
+            self._rich.print(text)
+        else:
+            print(text, flush=True)

@@ -1,0 +1,100 @@
+"""Writers attached to a run write while it goes: the same numbers as writing a
+finished Result, without keeping the frames in memory."""
+
+import csv
+
+import numpy as np
+import pytest
+
+import granular_chain as gc
+from granular_chain.cli import main
+from granular_chain.frames import FrameLog
+from granular_chain.model import build_model
+from granular_chain.writers.tables import EnergyTable, write_energy_csv
+from granular_chain.writers.thermo import COLUMNS, ThermoLog
+
+
+def chain(stepper="verlet", **run):
+    return gc.scene_from_dict({
+        "name": "stream",
+        "granules": {"count": 30, "velocity": {0: 0.1},
+                     "friction": {"kinetic": [0.0] * 15 + [2e-5] * 15, "viscous": 1e-4}},
+        "contacts": {"exponent": 2.5},
+        "walls": {"right": {"gap": 0.0, "exponent": 2.5}},
+        "run": {"stepper": stepper, "t_end": 60.0, "dt": 0.02, **run},
+        "output": {"every": 25}})
+
+
+class Collect:
+    def __init__(self):
+        self.frames, self.closed = [], None
+
+    def write_frame(self, frame):
+        self.frames.append((frame.step, frame.t, frame.x.copy(), frame.v.copy()))
+
+    def close(self, result):
+        self.closed = result
+
+
+def test_streamed_frames_equal_kept_frames_and_memory_keeps_two():
+    kept = gc.simulate(chain(), progress=False)
+    sink = Collect()
+    streamed = gc.simulate(chain(), progress=False, writers=[sink], keep_frames=False)
+    assert sink.closed is streamed and len(sink.frames) == kept.t.size == 121
+    for q, (step, t, x, v) in enumerate(sink.frames):
+        assert step == 25 * q and t == kept.t[q]
+        assert np.array_equal(x, kept.x[q]) and np.array_equal(v, kept.v[q])
+    assert streamed.t.size == 2 and streamed.x.shape == (2, 30)
+    assert np.array_equal(streamed.x_final, kept.x_final)
+    assert streamed.info["frames"] == 121
+    assert streamed.info["max_balance_error_relative"] == pytest.approx(
+        kept.energy.balance_error, rel=1e-12)
+
+
+def test_energy_table_streamed_is_the_table_of_the_result(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir(), b.mkdir()
+    table = EnergyTable(a)
+    result = gc.simulate(chain(), progress=False, writers=[table])
+    write_energy_csv(result, b)
+    assert (a / "energy.csv").read_bytes() == (b / "energy.csv").read_bytes()
+
+
+def test_thermo_lines_on_their_own_cadence(tmp_path):
+    scene = chain()
+    model = build_model(scene)
+    thermo = ThermoLog(model, every=40, path=tmp_path / "thermo.csv")
+    result = gc.simulate(scene, progress=False, thermo=thermo)
+    thermo.close()
+    rows = list(csv.DictReader((tmp_path / "thermo.csv").open()))
+    assert tuple(rows[0]) == COLUMNS
+    steps = [int(r["step"]) for r in rows]
+    assert steps == list(range(0, 3001, 40)) + [3000] * (3000 % 40 != 0)
+    # the lines at frame steps (multiples of 200 = lcm(25, 40)) agree with the frames
+    for r in rows:
+        s = int(r["step"])
+        if s % 25 == 0:
+            q = s // 25
+            e = result.energy
+            assert float(r["kinetic"]) == e.kinetic[q] and float(r["t"]) == result.t[q]
+            assert float(r["dissipated"]) == e.coulomb[q] + e.viscous[q]
+            x = result.x[q]
+            closed = np.count_nonzero(2 * 0.5 - np.diff(x) > 0) + int(
+                x[-1] - model.x0[-1] + model.walls[3] > 0)
+            assert int(r["contacts_closed"]) == closed
+            assert int(r["sliding"]) == np.count_nonzero(result.v[q][15:] != 0)
+    assert max(int(r["sliding"]) for r in rows) > 0 and max(
+        int(r["contacts_closed"]) for r in rows) > 1
+
+
+def test_cli_run_writes_thermo_and_prints_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.yaml").write_text(
+        "granules: {count: 5, velocity: {0: 1.0}}\nrun: {t_end: 20}\noutput: {thermo: 100}\n")
+    assert main(["run", "s.yaml", "--out", "r", "--csv"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].split() == ["step", "t", "kinetic", "potential", "dissipated", "ledger",
+                                  "closed", "sliding"]
+    rows = list(csv.DictReader((tmp_path / "r" / "thermo.csv").open()))
+    assert len(rows) == len(printed[1:1 + len(rows)]) and int(rows[1]["step"]) == 100
+    assert (tmp_path / "r" / "energy.csv").exists()
