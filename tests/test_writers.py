@@ -206,11 +206,11 @@ def test_run_that_asks_for_nothing_writes_only_marker_and_summary(tmp_path):
     out = tmp_path / "none"
     assert main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=5",
                  "--set", "output.trajectory=false"]) == 0
-    assert _files(out) == ["run.json", "summary.json"]
+    assert _files(out) == ["run.json", "summary.json", "thermo.csv"]
     out2 = tmp_path / "flag"
     assert main(["run", str(CHAIN), "--out", str(out2), "--quiet", "--set", "run.t_end=5",
                  "--no-trajectory"]) == 0
-    assert _files(out2) == ["run.json", "summary.json"]
+    assert _files(out2) == ["run.json", "summary.json", "thermo.csv"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["flag", "none"]
 
 
@@ -260,7 +260,7 @@ def test_failing_writer_leaves_no_output_folder(tmp_path, monkeypatch):
     def broken(*args, **kwargs):
         raise OSError("disk full (simulated)")
 
-    monkeypatch.setattr(tables, "write_tables", broken)
+    monkeypatch.setattr(tables.EnergyTable, "write_frame", broken)  # fails while running
     out = tmp_path / "out"
     with pytest.raises(OSError, match="disk full"):
         main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=2",
@@ -274,7 +274,7 @@ def test_failing_rerun_keeps_the_previous_run(tmp_path, monkeypatch):
     out = tmp_path / "out"
     assert main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=2"]) == 0
     before = (out / "summary.json").read_text()
-    monkeypatch.setattr(tables, "write_tables", lambda *a, **k: 1 / 0)
+    monkeypatch.setattr(tables, "write_events_csv", lambda *a, **k: 1 / 0)  # after the run
     with pytest.raises(ZeroDivisionError):
         main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=3", "--csv",
               "--overwrite"])
