@@ -177,6 +177,7 @@ def _output_folder(args, scene) -> tuple[Path, bool]:
 
 def cmd_run(args) -> int:
     from .interrupts import stop_signals
+    from .result import Status
     from .rundir import OutputError, RunFolder, check_out
     from .simulate import SimulationError, preflight, simulate
 
@@ -203,6 +204,11 @@ def cmd_run(args) -> int:
                                       keep_frames=attached.keep_frames, thermo=attached.thermo)
                 finally:
                     attached.close()
+                if result.status == Status.INTERRUPTED and out.exists():
+                    # an earlier complete run is worth more than a partial one
+                    print(f"granular-chain: interrupted at t = {result.t_final:.6g}; the "
+                          f"earlier run in {out} is kept", file=sys.stderr)
+                    return stop.exit_code
                 missed = _write_outputs(result, folder.tmp, scene, stop)
                 reason = _incomplete_reason(result, stop, missed)
                 folder.publish(complete=not reason, reason=reason)

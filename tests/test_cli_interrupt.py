@@ -1,16 +1,18 @@
 """An interrupted run (SIGINT, SIGTERM) leaves nothing that looks complete.
 
 ``granular-chain run`` is started in a subprocess on a scene that would step for
-minutes; once it is stepping it gets the signal. The --out folder must not exist
-and the hidden ``.NAME.partial-*`` folder it was writing into must be gone.
+minutes; once it is stepping it gets the signal. What was computed is in the
+--out folder, marked incomplete in run.json; the hidden ``.NAME.partial-*``
+folder it was writing into is gone; an earlier run in --out is kept.
 """
 
-import os
+import json
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+from xml.etree import ElementTree
 
 import pytest
 
@@ -52,9 +54,9 @@ def _wait_until_stepping(proc, parent: Path, name: str, timeout=30.0):
     pytest.fail("the run never created its partial output folder")
 
 
-@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"),
-                                             (signal.SIGTERM, 143, "terminated")])
-def test_signal_leaves_nothing_that_looks_complete(tmp_path, sig, code, word):
+@pytest.mark.parametrize("sig, code, name", [(signal.SIGINT, 130, "SIGINT"),
+                                             (signal.SIGTERM, 143, "SIGTERM")])
+def test_signal_leaves_a_run_marked_incomplete(tmp_path, sig, code, name):
     out = tmp_path / "long_run"
     proc = _start(out, "--vtk", "--csv")
     try:
@@ -66,10 +68,18 @@ def test_signal_leaves_nothing_that_looks_complete(tmp_path, sig, code, word):
             proc.kill()
             proc.wait()
     assert proc.returncode == code, err
-    assert f"granular-chain: {word}; nothing written to {out}" in err
-    assert "Traceback" not in err
-    assert not out.exists()
-    assert list(tmp_path.iterdir()) == []  # the .partial folder is cleaned up too
+    assert "Traceback" not in err and "marked incomplete" in err
+    marker = json.loads((out / "run.json").read_text())
+    assert marker["complete"] is False and f"interrupted by {name}" in marker["reason"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and summary["success"] is False
+    # the VTK series and the tables were written as the run went: whole frames, a valid index
+    pvd = ElementTree.parse(out / "run.pvd").getroot()
+    frames = pvd.findall("./Collection/DataSet")
+    assert len(frames) >= 1 and all((out / f.get("file")).is_file() for f in frames)
+    energy = (out / "energy.csv").read_text().splitlines()
+    assert len(energy) >= 2 and all(len(row.split(",")) == 6 for row in energy)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [out.name]  # no .partial folder
 
 
 def test_interrupted_rerun_keeps_the_previous_output(tmp_path):
@@ -79,7 +89,7 @@ def test_interrupted_rerun_keeps_the_previous_output(tmp_path):
          "--quiet", "--set", "run.t_end=2"], capture_output=True, text=True, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     before = (out / "summary.json").read_text()
-    proc = _start(out)
+    proc = _start(out, "--overwrite")
     try:
         _wait_until_stepping(proc, tmp_path, out.name)
         proc.send_signal(signal.SIGINT)
@@ -90,4 +100,5 @@ def test_interrupted_rerun_keeps_the_previous_output(tmp_path):
             proc.wait()
     assert proc.returncode == 130
     assert (out / "summary.json").read_text() == before
+    assert json.loads((out / "run.json").read_text())["complete"] is True
     assert sorted(p.name for p in tmp_path.iterdir()) == ["kept"]

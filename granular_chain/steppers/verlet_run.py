@@ -212,11 +212,11 @@ class VerletRun:
 
     def run(self) -> Result:
         """Step to t_end or a stop condition; the Result of the run."""
-        start = time.perf_counter()
         first = self.frame()
         self.log.record(first)
         if self.thermo is not None:
             self.thermo.write_frame(first)
+        start = time.perf_counter()  # stepping time: from the first frame on
         try:
             with stop_signals() as stop:
                 status, message = self._loop(stop)
