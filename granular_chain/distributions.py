@@ -21,7 +21,7 @@ field's length)::
 
     uniform    rng.uniform(low, high, n)                     low + (high - low) * U[0, 1)
     normal     rng.normal(mean, std, n)                      mean + std * Z
-    lognormal  rng.lognormal(math.log(median), sigma, n)     median * exp(sigma * Z)
+    lognormal  rng.lognormal(math.log(median), sigma, n)     exp(log(median) + sigma * Z)
 
 Uniform and normal draws involve only arithmetic on the generator's stream,
 so they are identical on every machine with the same NumPy version (NumPy
@@ -78,7 +78,7 @@ class Normal(_Recipe):
 
 
 class LogNormal(_Recipe):
-    """Positive values whose logarithm is normal: median * exp(sigma * Z)."""
+    """Positive values whose logarithm is normal: exp(log(median) + sigma * Z)."""
 
     distribution: Literal["lognormal"]
     median: Annotated[float, Field(gt=0, allow_inf_nan=False)]

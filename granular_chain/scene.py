@@ -337,11 +337,18 @@ def _dotted(loc: tuple) -> str:
     return "".join(parts)
 
 
-def _about_recipe(error: dict) -> bool:
-    """Whether a validation error comes from the distribution branch of a field given as a recipe."""
-    given = error.get("input")
-    return any(str(p).startswith("tagged-union") for p in error["loc"]) and \
-        isinstance(given, dict) and "distribution" in given
+def _recipe_errors(errors: list) -> list:
+    """For a field written as a distribution recipe (a mapping with 'distribution'),
+    only the errors of the recipe branch: they speak of what the user wrote."""
+    def recipe(e):
+        given = e.get("input")
+        return isinstance(given, dict) and "distribution" in given and _is_tag(e["loc"][-1])
+    fields = {e["loc"][:-1] for e in errors if recipe(e)}
+
+    def keep(e):
+        return not any(e["loc"][:len(f)] == f for f in fields) or \
+            any(str(p).startswith("tagged-union") for p in e["loc"])
+    return [e for e in errors if keep(e)]
 
 
 def _explain(exc: ValidationError, source: str) -> SceneError:
@@ -350,10 +357,9 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
     # A per-item field is a union (number or list): each member reports its own
     # error. The one with the deepest real path (an index into the list) is the
     # one that speaks of what the user wrote.
-    # A distribution recipe (a mapping with 'distribution'): its own error, not
-    # "not a number", is the one that speaks of what the user wrote.
+    errors = _recipe_errors(errors)
     first = max(errors, key=lambda e: (len(_dotted(e["loc"]).replace("[", ".[").split(".")),
-                                       _about_recipe(e), -errors.index(e)))
+                                       -errors.index(e)))
     loc = first["loc"]
     path = _dotted(loc)
     err_type = first["type"]
