@@ -192,3 +192,58 @@ def test_events_and_ledger_as_dataframes(run):
     assert led.index.name == "t" and np.array_equal(led.index.values, result.t)
     assert np.array_equal(led["balance"].values, result.energy.balance)
     assert list(led.columns) == ["kinetic", "potential", "coulomb", "viscous", "balance"]
+
+
+# ---------------------------------------------------------------- plots at any N
+
+def _one_granule_pulse(N, F):
+    """A synthetic run: granule pos(k) moves at v = 1 in frame k, all others rest."""
+    from granular_chain.model import build_model
+    from granular_chain.result import EnergyLedger, Result
+
+    scene = gc.load_scene(ROOT / "scenarios" / "hertz_chain.yaml", [f"granules.count={N}"])
+    x = np.broadcast_to(build_model(scene).x0, (F, N)).copy()
+    v = np.zeros((F, N))
+    v[np.arange(F), (np.arange(F) * (N - 1)) // (F - 1)] = 1.0
+    z = np.zeros(F)
+    result = Result(t=np.linspace(0.0, 100.0, F), x=x, v=v, f=np.zeros((F, N)),
+                    energy=EnergyLedger(z, z, z, z, 1.0), status=Status.T_END, message="",
+                    steps=F, wall_time=0.0, stepper="verlet", dt=0.01, t_final=100.0,
+                    x_final=x[-1], v_final=v[-1])
+    return scene, result
+
+
+def test_peak_blocks_keep_the_signed_peak_of_each_block():
+    from granular_chain.writers.plots import peak_blocks
+
+    v = np.array([[0.0, -3.0, 1.0, 0.5, 0.2], [2.0, 0.0, 0.0, -0.1, 0.0],
+                  [0.0, 0.0, 0.0, 0.0, -7.0]])
+    assert np.array_equal(peak_blocks(v, 2, 2), [[-3.0, 1.0, 0.2], [0.0, 0.0, -7.0]])
+    assert np.array_equal(peak_blocks(v, 1, 1), v)
+
+
+def test_spacetime_diagram_keeps_a_one_granule_pulse_at_large_n(tmp_path):
+    mpimg = pytest.importorskip("matplotlib.image")
+    from granular_chain.writers.plots import plot_spacetime
+
+    scene, result = _one_granule_pulse(20000, 400)
+    img = mpimg.imread(plot_spacetime(result, tmp_path / "s.png", scene))[..., :3]
+    H, W, _ = img.shape
+    axes = img[int(0.06 * H):int(0.9 * H), int(0.1 * W):int(0.8 * W)]  # inside the axes
+    pulse = (axes[..., 0] - axes[..., 1]) > 0.25  # the red end of the colour map
+    # Every pixel row crossed by the pulse shows it (a stride of 40 granules would
+    # show it in one row of 40).
+    assert pulse.any(axis=1).mean() > 0.95
+
+
+def test_frame_of_a_long_chain_shows_the_pulse(tmp_path):
+    mpimg = pytest.importorskip("matplotlib.image")
+    pytest.importorskip("pyvista")
+    from granular_chain.writers.plots import frame_window, render_frame
+
+    scene, result = _one_granule_pulse(20000, 50)
+    assert frame_window(result.v[25]) == (10103, 10303)  # 200 granules around 10203
+    assert frame_window(result.v[0]) == (0, 200) and frame_window(result.v[49]) == (19800, 20000)
+    img = mpimg.imread(render_frame(result, tmp_path / "f.png", scene))[..., :3]
+    pulse = (img[..., 0] - img[..., 1]) > 0.25
+    assert pulse.sum() > 30 and np.std(img) > 0.05  # the red granule, not a blank strip
