@@ -247,3 +247,12 @@ def test_frame_of_a_long_chain_shows_the_pulse(tmp_path):
     img = mpimg.imread(render_frame(result, tmp_path / "f.png", scene))[..., :3]
     pulse = (img[..., 0] - img[..., 1]) > 0.25
     assert pulse.sum() > 30 and np.std(img) > 0.05  # the red granule, not a blank strip
+
+
+def test_event_stepper_run_reads_back_with_its_event_log(tmp_path):
+    scene = gc.load_scene(ROOT / "scenarios" / "two_granules.yaml", ["run.stepper=event"])
+    result = gc.simulate(scene, progress=False)
+    assert [e.kind for e in result.events] == ["contact_close", "slip", "contact_open"]
+    back = gc.read_run(_folder(tmp_path, scene, result))
+    _assert_same(back, result)
+    assert back.dt is None and back.stepper == "event"
