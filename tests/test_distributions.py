@@ -1,4 +1,4 @@
-"""Seeded distributions for per-granule values: the exact draw, reproducible from the stored scene."""
+"""Seeded distributions for per-granule values: the exact draw, reproducible from the scene."""
 
 import json
 import math

@@ -124,6 +124,10 @@ def test_an_unclosed_trajectory_is_refused_and_keeps_its_frames(run, tmp_path):
         assert np.array_equal(h5["x"][...], result.x[:5])
     with pytest.raises(ValueError, match="did not finish writing"):
         gc.read_run(tmp_path)
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    with xr.open_dataset(tmp_path / "trajectory.h5", engine="h5netcdf") as ds:  # still readable
+        assert dict(ds.sizes) == {"time": 5, "granule": 2} and "balance" not in ds
 
 
 def test_read_run_without_trajectory_uses_the_summary(run, tmp_path):

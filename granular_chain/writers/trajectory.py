@@ -189,14 +189,20 @@ class TrajectoryWriter:
             ds.attrs.update(_attrs(self._units, kind, text))
             ds.dims[0].attach_scale(time)
             ds.dims[1].attach_scale(granule)
-        for name, text in LEDGER_FIELDS.items():
-            ds = h5.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
-                                   chunks=time.chunks)
-            ds.attrs.update(_attrs(self._units, "energy", text))
-            ds.dims[0].attach_scale(time)
+        for name in self._led:  # balance needs the initial energy: written by close()
+            self._series(name)
         for name, values in granule_values(scene).items():
             _, kind, text = _GRANULE_FIELDS[name]
             self._put(name, values, ("granule",), kind, text)
+
+    def _series(self, name: str):
+        """An empty, growable (time,) ledger variable."""
+        time = self._h5["time"]
+        ds = self._h5.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
+                                     chunks=time.chunks)
+        ds.attrs.update(_attrs(self._units, "energy", LEDGER_FIELDS[name]))
+        ds.dims[0].attach_scale(time)
+        return ds
 
     def _put(self, name, data, dims, kind, text, dtype="f8") -> None:
         """A fixed-size variable attached to existing dimension scales."""
@@ -235,7 +241,7 @@ class TrajectoryWriter:
         """Flush, then write the ledger balance, final state, events and status; close the file."""
         self.flush()
         h5 = self._h5
-        bal = h5["balance"]
+        bal = self._series("balance")
         bal.resize(self.frames, axis=0)
         step = 2 ** 16  # the ledger is read back in slices: memory stays bounded
         for a in range(0, self.frames, step):
