@@ -260,3 +260,50 @@ def test_event_stepper_run_reads_back_with_its_event_log(tmp_path):
     back = gc.read_run(_folder(tmp_path, scene, result))
     _assert_same(back, result)
     assert back.dt is None and back.stepper == "event"
+
+
+# ---------------------------------------------------------------- install and first run
+
+def test_version_and_python_dash_m(capsys):
+    import subprocess
+    import sys
+
+    from granular_chain.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0 and capsys.readouterr().out == f"granular-chain {gc.__version__}\n"
+    done = subprocess.run([sys.executable, "-m", "granular_chain", "--version"],
+                          capture_output=True, text=True, cwd=ROOT)
+    assert done.returncode == 0 and done.stdout.strip() == f"granular-chain {gc.__version__}"
+
+
+def test_compile_notice_only_when_kernels_are_not_cached(tmp_path, monkeypatch):
+    import io
+
+    from granular_chain import warmup
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))  # an empty cache
+    assert not warmup.kernels_cached("verlet")
+    out = io.StringIO()  # not a terminal: one plain line, no spinner
+    with warmup.compile_notice("verlet", stream=out):
+        pass
+    assert out.getvalue() == f"granular-chain: {warmup.NOTICE}\n"
+    (tmp_path / "verlet.verlet_chunk-246.py311.nbi").write_bytes(b"")
+    assert warmup.kernels_cached("verlet") and not warmup.kernels_cached("event")
+    out = io.StringIO()
+    with warmup.compile_notice("verlet", stream=out):
+        pass
+    assert out.getvalue() == ""
+
+
+def test_prepare_kernels_leaves_the_run_unchanged():
+    from granular_chain.warmup import prepare_kernels
+
+    scene = gc.load_scene(ROOT / "scenarios" / "two_granules.yaml", ["output.every=500"])
+    before = gc.simulate(scene, progress=False)
+    copy = scene.model_copy(deep=True)
+    assert prepare_kernels(scene, quiet=True) >= 0.0
+    assert scene == copy  # the two-step run was made on a copy
+    after = gc.simulate(scene, progress=False)
+    assert np.array_equal(before.x, after.x) and before.t_final == after.t_final
