@@ -307,3 +307,11 @@ def test_prepare_kernels_leaves_the_run_unchanged():
     assert scene == copy  # the two-step run was made on a copy
     after = gc.simulate(scene, progress=False)
     assert np.array_equal(before.x, after.x) and before.t_final == after.t_final
+
+
+def test_missing_viz_extra_is_named_in_one_line():
+    from granular_chain.writers.plots import viz_missing
+
+    assert viz_missing("--plots", ("os",)) == ""
+    assert viz_missing("--vtk", ("no_such_module_here",)) == (
+        "--vtk: needs no_such_module_here; pip install 'granular_chain[viz]'")

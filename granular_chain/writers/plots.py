@@ -44,15 +44,18 @@ _MAX_COLUMNS, _MAX_ROWS = 500, 600
 _FRAME_GRANULES = 200
 
 
-def viz_missing(what: str = "plots") -> str:
-    """One line naming the extra to install when matplotlib or pyvista is missing, else ''."""
+def viz_missing(what: str = "plots", modules=("matplotlib", "pyvista")) -> str:
+    """One line naming the extra that installs ``modules`` when some are missing, else ''.
+
+    For a command line's refusal before a run starts, e.g. ``viz_missing("--plots")``
+    or ``viz_missing("--vtk", ("pyvista",))``.
+    """
     import importlib.util
 
-    absent = [m for m in ("matplotlib", "pyvista") if importlib.util.find_spec(m) is None]
+    absent = [m for m in modules if importlib.util.find_spec(m) is None]
     if not absent:
         return ""
-    return (f"{what} need{'s' if what.endswith('series') else ''} {' and '.join(absent)}: "
-            f"pip install 'granular_chain[viz]'")
+    return f"{what}: needs {' and '.join(absent)}; pip install 'granular_chain[viz]'"
 
 
 def _pyplot():
