@@ -189,7 +189,9 @@ class Result:
 
     @property
     def scene(self):
-        """The scene the run was made from, when known (always for :func:`read_run`)."""
+        """The scene the run was made from, when known (always after
+        :func:`granular_chain.read_run`); not a dataclass field, so
+        ``dataclasses.replace`` does not carry it over."""
         return self.__dict__.get("_scene")
 
     @scene.setter
