@@ -107,6 +107,11 @@ def root_attrs(scene) -> dict:
     return attrs
 
 
+def _plain(value):
+    """JSON form of what json cannot write itself: NumPy scalars and arrays, else text."""
+    return value.tolist() if hasattr(value, "tolist") else str(value)
+
+
 def final_attrs(result) -> dict:
     """Global attributes known when the run has ended (status, cost, counts)."""
     attrs = {"status": str(result.status), "status_code": int(result.status),
@@ -115,7 +120,7 @@ def final_attrs(result) -> dict:
              "wall_time_s": float(result.wall_time), "t_final": float(result.t_final),
              "energy_initial": float(result.energy.initial),
              "event_counts": json.dumps({k: int(n) for k, n in result.event_counts.items()}),
-             "info": json.dumps(result.info)}
+             "info": json.dumps(result.info, default=_plain)}
     if result.dt is not None:
         attrs["dt"] = float(result.dt)
     return attrs
