@@ -30,7 +30,10 @@ EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + signal number, as shells r
 
 
 def _parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     p = argparse.ArgumentParser(prog="granular-chain", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"granular-chain {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run a scene and write its outputs")

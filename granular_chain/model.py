@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._compile import specialised
+from .distributions import draw, is_recipe
 from .forces import total_potential
 from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
 from .scene import Scene
@@ -151,6 +152,8 @@ class Model:
 
 
 def _per(value, count: int) -> np.ndarray:
+    if is_recipe(value):  # a seeded distribution: its count values (distributions.py)
+        return np.ascontiguousarray(draw(value, count))
     if isinstance(value, dict):  # sparse {index: value}, the rest zero
         arr = np.zeros(count)
         for i, x in value.items():

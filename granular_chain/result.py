@@ -34,6 +34,27 @@ class Status(enum.IntEnum):
     def success(self) -> bool:
         return self.value >= 0
 
+    def __str__(self) -> str:
+        """The lower-case name (``t_end``, ``separated``...), as summary.json writes it."""
+        return self.name.lower()
+
+    def __format__(self, spec: str) -> str:
+        # Integer presentation types keep the number ({s:d}); anything else the name.
+        if spec and spec[-1] in "bdnoxX":
+            return format(int(self), spec)
+        return format(str(self), spec)
+
+
+def _need(module: str, extra: str, what: str):
+    """Import an optional dependency, or say in one line which extra installs it."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise ImportError(f"{what} needs {module}: pip install 'granular_chain[{extra}]'") \
+            from None
+
 
 # What a run ending with Status.OVERLAP tells the user to change.
 OVERLAP_ADVICE = ("the contact is too soft for this impact (granules would pass "
@@ -166,10 +187,51 @@ class Result:
     def success(self) -> bool:
         return self.status.success
 
+    @property
+    def scene(self):
+        """The scene the run was made from, when known (always after
+        :func:`granular_chain.read_run`); not a dataclass field, so
+        ``dataclasses.replace`` does not carry it over."""
+        return self.__dict__.get("_scene")
+
+    @scene.setter
+    def scene(self, value) -> None:
+        self.__dict__["_scene"] = value
+
+    def __repr__(self) -> str:
+        name = self.scene.name if self.scene is not None else self.info.get("scene_name")
+        who = f"{name!r}, " if name else ""
+        return (f"Result({who}N={self.x_final.size}, frames={self.t.size}, steps={self.steps}, "
+                f"status={self.status}, t={self.t_final:.6g})")
+
+    def to_xarray(self):
+        """The frames as an ``xarray.Dataset``, dimensions (time, granule), laid out as
+        trajectory.h5 (needs the ``analysis`` extra)."""
+        _need("xarray", "analysis", "Result.to_xarray")
+        from .writers.trajectory import to_xarray
+        return to_xarray(self, self.scene)
+
+    def events_frame(self):
+        """The event log as a ``pandas.DataFrame`` with columns t, kind, index (one row
+        per event; empty for the Verlet stepper, which only counts events)."""
+        pd = _need("pandas", "analysis", "Result.events_frame")
+        return pd.DataFrame({"t": np.array([e.t for e in self.events], dtype=np.float64),
+                             "kind": pd.Series([e.kind for e in self.events], dtype=object),
+                             "index": np.array([e.index for e in self.events], dtype=np.int64)})
+
+    def ledger_frame(self):
+        """The energy ledger as a ``pandas.DataFrame`` indexed by frame time ``t``, columns
+        kinetic, potential, coulomb, viscous, balance (the columns of energy.csv)."""
+        pd = _need("pandas", "analysis", "Result.ledger_frame")
+        led = self.energy
+        return pd.DataFrame({"kinetic": led.kinetic, "potential": led.potential,
+                             "coulomb": led.coulomb, "viscous": led.viscous,
+                             "balance": led.balance}, index=pd.Index(self.t, name="t"))
+
     def summary(self) -> dict:
         """A JSON-ready summary (what ``granular-chain run`` writes as summary.json)."""
         return {
-            "status": self.status.name.lower(),
+            "status": str(self.status),
             "status_code": int(self.status),
             "success": self.success,
             "message": self.message,

@@ -24,6 +24,8 @@ from pydantic import (
     model_validator,
 )
 
+from .distributions import Distribution, check_draw, draw, is_recipe
+
 __all__ = [
     "Scene",
     "SceneError",
@@ -50,6 +52,10 @@ NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 PerItem = Union[Finite, list[Finite]]
 PerItemPositive = Union[Positive, list[Positive]]
 PerItemNonNegative = Union[NonNegative, list[NonNegative]]
+# Per-granule fields also take a seeded distribution (see distributions.py).
+PerGranule = Union[Finite, list[Finite], Distribution]
+PerGranulePositive = Union[Positive, list[Positive], Distribution]
+PerGranuleNonNegative = Union[NonNegative, list[NonNegative], Distribution]
 
 
 class _Strict(BaseModel):
@@ -59,11 +65,11 @@ class _Strict(BaseModel):
 class Friction(_Strict):
     """Friction on each granule, as forces (scaled or SI), eq. (5)-(6) and Sec. III."""
 
-    kinetic: PerItemNonNegative = Field(
+    kinetic: PerGranuleNonNegative = Field(
         0.0, description="Coulomb (kinetic) friction force magnitude eta_i on each granule.")
-    static: Optional[PerItemNonNegative] = Field(
+    static: Optional[PerGranuleNonNegative] = Field(
         None, description="Static threshold; defaults to the kinetic value. Must be >= kinetic.")
-    viscous: PerItemNonNegative = Field(
+    viscous: PerGranuleNonNegative = Field(
         0.0, description="Hydrodynamic friction coefficient gamma_i: force -gamma_i * v_i.")
 
 
@@ -79,18 +85,35 @@ class Granules(_Strict):
     """The N granules, indexed 0..N-1 from left to right."""
 
     count: int = Field(..., ge=1, description="Number of granules N.")
-    mass: PerItemPositive = Field(1.0, description="Mass m_i (one value or N values).")
-    radius: PerItemPositive = Field(0.5, description="Radius r_i (one value or N values).")
-    gap: PerItem = Field(
+    mass: PerGranulePositive = Field(1.0, description="Mass m_i (one value or N values).")
+    radius: PerGranulePositive = Field(0.5, description="Radius r_i (one value or N values).")
+    gap: PerGranule = Field(
         0.0,
         description="Gap between neighbours i and i+1 (one value or N-1 values): "
         "0 = just touching, negative = initial overlap (precompression).")
-    velocity: Union[Finite, list[Finite], dict[int, Finite]] = Field(
+    velocity: Union[Finite, list[Finite], dict[int, Finite], Distribution] = Field(
         0.0, description="Initial velocity v_i: one value, N values, or a mapping "
         "{index: value} with every other granule at rest (e.g. {0: 1.0} for a striker).")
     friction: Friction = Field(default_factory=Friction)
     material: Optional[Material] = Field(
         None, description="Elastic constants, used when contacts.stiffness is 'hertz'.")
+
+    @model_validator(mode="after")
+    def _draws_in_bounds(self) -> "Granules":
+        """Refuse a distribution whose drawn values break the field's bounds."""
+        n, fr = self.count, self.friction
+        for path, value, bound, size, item in (
+                ("mass", self.mass, "positive", n, "granule"),
+                ("radius", self.radius, "positive", n, "granule"),
+                ("gap", self.gap, "finite", n - 1, "contact"),
+                ("velocity", self.velocity, "finite", n, "granule"),
+                ("friction.kinetic", fr.kinetic, "nonnegative", n, "granule"),
+                ("friction.static", fr.static, "nonnegative", n, "granule"),
+                ("friction.viscous", fr.viscous, "nonnegative", n, "granule")):
+            problem = check_draw(value, size, bound, item) if is_recipe(value) else ""
+            if problem:
+                raise _FieldProblem(f"granules.{path}", problem)
+        return self
 
 
 class Contacts(_Strict):
@@ -265,6 +288,8 @@ class _FieldProblem(ValueError):
 
 
 def _expand(value, n: int) -> list[float]:
+    if is_recipe(value):
+        return draw(value, n).tolist()
     return list(value) if isinstance(value, list) else [value] * n
 
 
@@ -294,7 +319,8 @@ def _submodel(annotation) -> Optional[type[BaseModel]]:
     return None
 
 
-_TYPE_TAGS = {"float", "int", "str", "bool", "list", "dict", "none"}
+_TYPE_TAGS = {"float", "int", "str", "bool", "list", "dict", "none",
+              "uniform", "normal", "lognormal"}  # the last three: distribution recipes
 
 
 def _is_tag(part) -> bool:
@@ -316,12 +342,27 @@ def _dotted(loc: tuple) -> str:
     return "".join(parts)
 
 
+def _recipe_errors(errors: list) -> list:
+    """For a field written as a distribution recipe (a mapping with 'distribution'),
+    only the errors of the recipe branch: they speak of what the user wrote."""
+    def recipe(e):
+        given = e.get("input")
+        return isinstance(given, dict) and "distribution" in given and _is_tag(e["loc"][-1])
+    fields = {e["loc"][:-1] for e in errors if recipe(e)}
+
+    def keep(e):
+        return not any(e["loc"][:len(f)] == f for f in fields) or \
+            any(str(p).startswith("tagged-union") for p in e["loc"])
+    return [e for e in errors if keep(e)]
+
+
 def _explain(exc: ValidationError, source: str) -> SceneError:
     """The most specific validation error as one SceneError line (file, field, problem)."""
     errors = exc.errors(include_url=False)
     # A per-item field is a union (number or list): each member reports its own
     # error. The one with the deepest real path (an index into the list) is the
     # one that speaks of what the user wrote.
+    errors = _recipe_errors(errors)
     first = max(errors, key=lambda e: (len(_dotted(e["loc"]).replace("[", ".[").split(".")),
                                        -errors.index(e)))
     loc = first["loc"]
@@ -337,6 +378,12 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
     if err_type == "value_error" and isinstance(first.get("ctx", {}).get("error"), _FieldProblem):
         fp = first["ctx"]["error"]
         return SceneError(source, fp.path, fp.problem)
+    if err_type == "union_tag_invalid":
+        return SceneError(source, f"{path}.distribution", "must be uniform, normal or "
+                          f"lognormal (got {first.get('ctx', {}).get('tag')!r})")
+    if err_type == "value_error" and path.split(".")[-1] in ("mass", "radius", "gap", "velocity",
+                                                           "kinetic", "static", "viscous"):
+        return SceneError(source, path, first["msg"].removeprefix("Value error, "))
     if err_type == "missing":
         return SceneError(source, path, "is required but missing")
     msg = first["msg"]

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 from granular_chain.cli import main
 
@@ -31,8 +32,9 @@ def test_run_writes_summary_and_trajectory(tmp_path):
     import math
     assert summary["v_final"][1] == pytest.approx(math.sqrt(1 - eta ** 2) - eta * math.pi / (2 * math.sqrt(2)), abs=1e-8)
     with h5py.File(out / "trajectory.h5") as f:
-        assert f["x"].shape == (len(f["t"]), 2) and f["x"].attrs["units"] == "scaled length"
-        assert json.loads(f.attrs["scene"])["name"] == "two_granules"
+        assert f["x"].shape == (len(f["time"]), 2) and f["x"].attrs["units"] == "1"
+        assert "scaled" in f["x"].attrs["long_name"]
+        assert yaml.safe_load(f.attrs["scene"])["name"] == "two_granules"
     assert [p.name for p in tmp_path.iterdir()] == ["run"]  # no temporary folder left
 
 

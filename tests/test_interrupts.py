@@ -102,7 +102,7 @@ def test_cli_writes_what_was_computed_marked_incomplete(tmp_path, signum, code):
     summary = json.loads((run / "summary.json").read_text())
     assert summary["status"] == "interrupted" and summary["success"] is False
     with h5py.File(run / "trajectory.h5") as h5:
-        assert h5["t"].shape[0] >= 2 and h5["t"][-1] == pytest.approx(summary["t_final"])
+        assert h5["time"].shape[0] >= 2 and h5["time"][-1] == pytest.approx(summary["t_final"])
     assert "marked incomplete" in err
     debris = [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
     assert debris == []

@@ -34,12 +34,34 @@ __all__ = ["write_plots", "plot_spacetime", "plot_energy", "plot_velocities", "r
            "default_granules", "PLOT_DIR"]
 
 PLOT_DIR = "plots"
-# Cells drawn in the space-time diagram at most; larger runs are strided (the
-# picture has ~1000 pixels a side, so more cells only cost time).
-_MAX_CELLS = 2_000_000
+# Cells of the space-time diagram at most, about its axes' size in pixels: a
+# longer or larger run is reduced block by block, each block drawn as its value
+# of largest magnitude, so a pulse one granule and one frame wide still shows,
+# at full colour, at any N (a cell narrower than a pixel would be blended away).
+_MAX_COLUMNS, _MAX_ROWS = 500, 600
+# Granules rendered in frame.png at most: a longer chain is shown around the
+# granule moving fastest (the pulse), as the whole chain would be sub-pixel spheres.
+_FRAME_GRANULES = 200
+
+
+def viz_missing(what: str = "plots", modules=("matplotlib", "pyvista")) -> str:
+    """One line naming the extra that installs ``modules`` when some are missing, else ''.
+
+    For a command line's refusal before a run starts, e.g. ``viz_missing("--plots")``
+    or ``viz_missing("--vtk", ("pyvista",))``.
+    """
+    import importlib.util
+
+    absent = [m for m in modules if importlib.util.find_spec(m) is None]
+    if not absent:
+        return ""
+    return f"{what}: needs {' and '.join(absent)}; pip install 'granular_chain[viz]'"
 
 
 def _pyplot():
+    message = viz_missing()
+    if message:
+        raise ImportError(message)
     import matplotlib
     matplotlib.use("Agg", force=True)
     import matplotlib.pyplot as plt
@@ -73,26 +95,48 @@ def plot_spacetime(result, path, scene=None) -> Path:
 
     t, v = result.t, result.v
     F, N = v.shape
-    stride_t = max(1, int(np.ceil(F / max(1, _MAX_CELLS // max(N, 1)))))
-    stride_n = max(1, int(np.ceil(N / 2000)))
-    rows = np.arange(0, F, stride_t)
-    cols = np.arange(0, N, stride_n)
-    vv = v[np.ix_(rows, cols)]
-    vmax = float(np.max(np.abs(vv))) or 1.0
+    bn, bt = -(-N // _MAX_COLUMNS), -(-F // _MAX_ROWS)  # ceil: blocks of bt frames x bn granules
     tlab, vlab, _ = _units(scene)
     fig, ax = plt.subplots(figsize=(7, 6), constrained_layout=True)
-    # 'nearest' puts each frame at its own time, so unequal frame spacing (a short
-    # last chunk, a located separation) is drawn where it happened.
-    mesh = ax.pcolormesh(cols, t[rows], vv, shading="nearest", cmap="RdBu_r",
-                         norm=TwoSlopeNorm(0.0, -vmax, vmax), rasterized=True)
+    if bt == 1 and bn == 1:
+        vv = v
+        # 'nearest' puts each frame at its own time, so unequal frame spacing (a short
+        # last chunk, a located separation) is drawn where it happened.
+        cells = dict(X=np.arange(N), Y=t, shading="nearest")
+    else:
+        vv = peak_blocks(v, bt, bn)
+        edges_t = np.append(t[::bt], t[-1])  # block k spans frames k*bt .. (k+1)*bt
+        cells = dict(X=np.append(np.arange(0, N, bn), N) - 0.5, Y=edges_t, shading="flat")
+    vmax = float(np.max(np.abs(vv))) or 1.0
+    mesh = ax.pcolormesh(cells.pop("X"), cells.pop("Y"), vv, cmap="RdBu_r",
+                         norm=TwoSlopeNorm(0.0, -vmax, vmax), rasterized=True, **cells)
     fig.colorbar(mesh, ax=ax, label=f"velocity {vlab}")
     ax.set_xlabel("granule index i")
     ax.set_ylabel(tlab)
     name = scene.name if scene is not None else "run"
-    ax.set_title(f"{name}: velocity of every granule (N = {N}, {F} frames)")
+    shown = "" if bt == bn == 1 else f", cells: peak of {bt} x {bn}"
+    ax.set_title(f"{name}: velocity of every granule (N = {N}, {F} frames{shown})",
+                 fontsize="medium")
     _save(fig, Path(path))
     plt.close(fig)
     return Path(path)
+
+
+def peak_blocks(v: np.ndarray, bt: int, bn: int) -> np.ndarray:
+    """Reduce (F, N) to blocks of bt frames x bn granules, each the signed value of
+    largest magnitude in its block; shape (ceil(F/bt), ceil(N/bn)).
+
+    Works one row of blocks at a time, so the extra memory is one block row.
+    """
+    F, N = v.shape
+    nb = -(-N // bn)
+    out = np.empty((-(-F // bt), nb))
+    for k, a in enumerate(range(0, F, bt)):
+        rows = np.zeros((min(bt, F - a), nb * bn))  # padding of zeros never wins a peak
+        rows[:, :N] = v[a:a + bt]
+        blocks = rows.reshape(rows.shape[0], nb, bn).transpose(1, 0, 2).reshape(nb, -1)
+        out[k] = blocks[np.arange(nb), np.argmax(np.abs(blocks), axis=1)]
+    return out
 
 
 def plot_energy(result, path, scene=None) -> Path:
@@ -179,15 +223,17 @@ def render_frame(result, path, scene, time: Optional[float] = None,
     t = result.t
     target = 0.5 * (t[0] + t[-1]) if time is None else float(time)
     i = int(np.argmin(np.abs(t - target)))
-    x, v = result.x[i], result.v[i]
+    lo, hi = frame_window(result.v[i])
+    x, v = result.x[i, lo:hi], result.v[i, lo:hi]
+    radius, k, n = model.radius[lo:hi], model.k[lo:hi - 1], model.n[lo:hi - 1]
     pts = np.zeros((x.size, 3))
     pts[:, 0] = x
     cloud = pv.PolyData(pts)
-    cloud.point_data["diameter"] = 2.0 * model.radius
+    cloud.point_data["diameter"] = 2.0 * radius
     cloud.point_data["velocity"] = v
     spheres = cloud.glyph(geom=pv.Sphere(radius=0.5, theta_resolution=24, phi_resolution=16),
                           scale="diameter", orient=False)
-    vmax = float(np.max(np.abs(result.v))) or 1.0
+    vmax = float(np.max(np.abs(v))) or 1.0  # the frame's own scale: its pulse is always red
     pl = pv.Plotter(off_screen=True, window_size=list(window_size))
     pl.set_background("white")
     bar = {"color": "black", "vertical": False, "position_y": 0.06, "height": 0.1,
@@ -196,24 +242,26 @@ def render_frame(result, path, scene, time: Optional[float] = None,
                 smooth_shading=True,
                 scalar_bar_args={**bar, "title": "velocity", "position_x": 0.55})
     if x.size > 1:
-        overlap, force = contact_overlap_force(x, model.radius, model.k, model.n)
+        overlap, force = contact_overlap_force(x, radius, k, n)
         closed = np.flatnonzero(overlap > 0.0)
         if closed.size:
             lines = np.column_stack([np.full(closed.size, 2), closed, closed + 1]).ravel()
             contacts = pv.PolyData(pts.copy(), lines=lines)
             contacts.cell_data["force"] = force[closed]
             # Tubes lifted in front of the spheres (+z) so the contacts stay visible.
-            contacts.points[:, 2] = 1.05 * float(np.max(model.radius))
-            tube = contacts.tube(radius=0.08 * float(np.min(model.radius)))
+            contacts.points[:, 2] = 1.05 * float(np.max(radius))
+            tube = contacts.tube(radius=0.08 * float(np.min(radius)))
             pl.add_mesh(tube, scalars="force", cmap="viridis",
                         clim=(0.0, float(np.max(force[closed])) or 1.0),
                         scalar_bar_args={**bar, "title": "contact force (closed contacts)",
                                          "position_x": 0.05})
-    pl.add_text(f"t = {t[i]:.4g}   (frame {i} of {t.size - 1})", position="upper_edge",
+    N = result.v.shape[1]
+    which = "" if hi - lo == N else f",  granules {lo}..{hi - 1} of {N}"
+    pl.add_text(f"t = {t[i]:.4g}   (frame {i} of {t.size - 1}{which})", position="upper_edge",
                 font_size=11, color="black")
     # Parallel projection looking down -z; the chain fills the width and sits above
     # the colour bars (parallel_scale is half the visible height in world units).
-    span = float(x.max() - x.min() + 4.0 * np.max(model.radius))
+    span = float(x.max() - x.min() + 4.0 * np.max(radius))
     half_height = 0.5 * span * window_size[1] / window_size[0]
     xc = 0.5 * float(x.max() + x.min())
     yc = -0.25 * half_height
@@ -231,6 +279,17 @@ def render_frame(result, path, scene, time: Optional[float] = None,
         pl.close()
     os.replace(tmp, path)
     return path
+
+
+def frame_window(v: np.ndarray, most: int = _FRAME_GRANULES) -> tuple[int, int]:
+    """Granules ``lo..hi-1`` drawn in frame.png: all of them, or ``most`` centred on
+    the fastest granule (the pulse) when the chain is longer."""
+    N = v.size
+    if N <= most:
+        return 0, N
+    centre = int(np.argmax(np.abs(v)))
+    lo = min(max(centre - most // 2, 0), N - most)
+    return lo, lo + most
 
 
 def write_plots(result, folder, scene=None, *, granules: Optional[Sequence[int]] = None,

@@ -1,109 +1,390 @@
 """trajectory.h5: positions, velocities, forces and the energy ledger at the output frames.
 
-Self-describing HDF5: every dataset carries ``units`` and a ``description``
-attribute, and the scene is stored as JSON in the file's ``scene`` attribute::
+The file is netCDF-4 (HDF5 with dimension scales) following the CF conventions,
+so netCDF tools and xarray read it with named dimensions::
 
-    import h5py; f = h5py.File("trajectory.h5"); f["x"][...]   # (frames, granules)
+    import xarray as xr
+    ds = xr.open_dataset("outputs/hertz_chain/trajectory.h5", engine="h5netcdf")
+    ds.v.sel(granule=10)                      # v_10(t), a DataArray over time
+
+and h5py reads it as plain HDF5 (``h5py.File(path)["x"][...]``, shape (frames, granules)).
+
+Layout (``units`` and ``long_name`` on every variable; scaled scenes use CF's
+dimensionless unit ``"1"``, physical ones SI):
+
+``time`` (time), unlimited, and ``granule`` (granule)
+    Dimension scales: frame times, and granule indices 0..N-1 from the left.
+``x``, ``v``, ``f`` (time, granule)
+    Centre positions, velocities, net contact force (neighbours and walls).
+``kinetic``, ``potential``, ``coulomb``, ``viscous``, ``balance`` (time)
+    The energy ledger (the columns of energy.csv).
+``mass``, ``radius``, ``friction_kinetic``, ``friction_static``, ``friction_viscous`` (granule)
+    The per-granule values the run used (drawn values, for scenes with distributions).
+``x_final``, ``v_final`` (granule); ``event_time``, ``event_kind``, ``event_index`` (event)
+    The final state and the event log (written when the run is closed).
+
+Global attributes: ``Conventions``, ``title``, ``source``, ``engine_version``,
+``scene`` (the validated scene as YAML text: distributions appear as their recipe,
+from which the drawn values are reproducible), ``scene_name``, ``units_system``;
+after the run: ``status`` (a name such as ``t_end``), ``status_code``,
+``success`` (1/0), ``message``, ``stepper``, ``dt``, ``steps``, ``wall_time_s``,
+``t_final``, ``energy_initial``, ``event_counts`` and ``info`` (JSON text).
+
+:class:`TrajectoryWriter` appends frames while a run goes (resizable datasets,
+at most ``chunk_frames`` frames buffered); :func:`write_trajectory` streams a
+finished :class:`~granular_chain.result.Result` through it.
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Optional
 
 import h5py
 import numpy as np
 
-__all__ = ["write_trajectory", "read_trajectory"]
+__all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
+           "to_xarray", "FRAME_FIELDS", "LEDGER_FIELDS"]
+
+# Bounds of the in-memory buffer and of one HDF5 chunk of a (time, granule) array.
+_BUFFER_BYTES = 32 * 2 ** 20
+_CHUNK_VALUES = 2 ** 17  # 1 MiB of float64: reading one frame reads little more than it
+
+_UNITS = {  # CF / UDUNITS strings per kind of quantity
+    "physical": {"time": "s", "length": "m", "velocity": "m s-1", "force": "N",
+                 "energy": "J", "mass": "kg", "damping": "kg s-1", "": "1"},
+}
+_SCALED = "scaled, paper Appendix A"
+
+#: (time, granule) arrays: name -> (kind, long_name)
+FRAME_FIELDS = {
+    "x": ("length", "granule centre position"),
+    "v": ("velocity", "granule velocity"),
+    "f": ("force", "net contact force on the granule from its neighbours and the walls"),
+}
+#: (time,) ledger arrays: name -> long_name (the columns of energy.csv)
+LEDGER_FIELDS = {
+    "kinetic": "kinetic energy, sum of m v^2/2",
+    "potential": "elastic energy of the contacts",
+    "coulomb": "energy dissipated by kinetic (Coulomb) friction so far",
+    "viscous": "energy dissipated by hydrodynamic friction so far",
+    "balance": "kinetic + potential + coulomb + viscous - initial energy (integrator error)",
+}
+# (granule,) arrays of the model: name -> (Model attribute, kind, long_name)
+_GRANULE_FIELDS = {
+    "mass": ("mass", "mass", "granule mass"),
+    "radius": ("radius", "length", "granule radius"),
+    "friction_kinetic": ("eta", "force", "kinetic (Coulomb) friction force"),
+    "friction_static": ("eta_static", "force", "static friction threshold"),
+    "friction_viscous": ("gamma", "damping", "hydrodynamic friction coefficient"),
+}
+
+
+def _attrs(units_system: str, kind: str, long_name: str) -> dict:
+    """CF ``units`` and ``long_name`` of a variable of this kind."""
+    if units_system == "physical" or not kind:
+        return {"units": _UNITS["physical"][kind], "long_name": long_name}
+    return {"units": "1", "long_name": f"{long_name} ({_SCALED})"}
+
+
+def _engine_version() -> str:
+    from .. import __version__
+    return __version__
+
+
+def root_attrs(scene) -> dict:
+    """Global attributes known before the run: conventions, engine, the scene as YAML."""
+    import yaml
+
+    attrs = {"Conventions": "CF-1.10", "source": f"granular_chain {_engine_version()}",
+             "engine": "granular_chain", "engine_version": _engine_version(),
+             "units_system": scene.units if scene is not None else "scaled"}
+    if scene is not None:
+        attrs["title"] = f"granular_chain run of scene {scene.name}"
+        attrs["scene_name"] = scene.name
+        attrs["scene"] = yaml.safe_dump(scene.model_dump(mode="json"), sort_keys=False)
+    return attrs
+
+
+def _plain(value):
+    """JSON form of what json cannot write itself: NumPy scalars and arrays, else text."""
+    return value.tolist() if hasattr(value, "tolist") else str(value)
+
+
+def final_attrs(result) -> dict:
+    """Global attributes known when the run has ended (status, cost, counts)."""
+    attrs = {"status": str(result.status), "status_code": int(result.status),
+             "success": np.int8(result.success), "message": result.message,
+             "stepper": result.stepper, "steps": np.int64(result.steps),
+             "wall_time_s": float(result.wall_time), "t_final": float(result.t_final),
+             "energy_initial": float(result.energy.initial),
+             "event_counts": json.dumps({k: int(n) for k, n in result.event_counts.items()}),
+             "info": json.dumps(result.info, default=_plain)}
+    if result.dt is not None:
+        attrs["dt"] = float(result.dt)
+    return attrs
+
+
+def granule_values(scene) -> dict:
+    """The per-granule model arrays stored with the run (empty without a scene)."""
+    if scene is None:
+        return {}
+    from ..model import build_model
+
+    model = build_model(scene)
+    return {name: getattr(model, attr) for name, (attr, _, _) in _GRANULE_FIELDS.items()}
+
+
+class TrajectoryWriter:
+    """Append output frames to ``folder/trajectory.h5`` while a run goes.
+
+    Frames are buffered, at most ``chunk_frames`` of them (fewer when N is so
+    large that the buffer would pass 32 MiB), and flushed with one resize and
+    one write per array, so memory does not grow with the number of frames.
+
+    Parameters
+    ----------
+    folder : path
+        Folder the file is written into (``folder/trajectory.h5``, replaced).
+    scene : Scene or None
+        Stored as YAML text; sets the units and the per-granule arrays.
+    count : int
+        Number of granules N.
+    chunk_frames : int
+        Frames buffered before a write.
+
+    Use as a context manager; :meth:`close` with the run's Result writes the
+    final state, events and status. Leaving the block without it flushes the
+    frames and closes the file without a status (readers then refuse it).
+    """
+
+    def __init__(self, folder, scene, count: int, *, chunk_frames: int = 64):
+        self.path = Path(folder) / "trajectory.h5"
+        self.count = int(count)
+        self.frames = 0
+        self._units = scene.units if scene is not None else "scaled"
+        self._rows = max(1, min(int(chunk_frames), _BUFFER_BYTES // (24 * max(self.count, 1))))
+        self._t = np.empty(self._rows)
+        self._xvf = {name: np.empty((self._rows, self.count)) for name in FRAME_FIELDS}
+        self._led = {name: np.empty(self._rows) for name in LEDGER_FIELDS if name != "balance"}
+        self._fill = 0
+        self._h5 = h5py.File(self.path, "w", track_order=True)
+        try:
+            self._create(scene)
+        except BaseException:
+            self._h5.close()
+            raise
+
+    def _create(self, scene) -> None:
+        h5, n = self._h5, self.count
+        h5.attrs.update(root_attrs(scene))
+        time = h5.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
+                                 chunks=(max(self._rows, 512),))
+        time.attrs.update({**_attrs(self._units, "time", "time"), "axis": "T"})
+        time.make_scale("time")
+        granule = h5.create_dataset("granule", data=np.arange(n, dtype=np.int64))
+        granule.attrs.update(_attrs(self._units, "", "granule index, 0 at the left end"))
+        granule.make_scale("granule")
+        cols = min(n, _CHUNK_VALUES)
+        rows = max(1, min(self._rows, _CHUNK_VALUES // cols))
+        for name, (kind, text) in FRAME_FIELDS.items():
+            ds = h5.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
+                                   chunks=(rows, cols))
+            ds.attrs.update(_attrs(self._units, kind, text))
+            ds.dims[0].attach_scale(time)
+            ds.dims[1].attach_scale(granule)
+        for name in self._led:  # balance needs the initial energy: written by close()
+            self._series(name)
+        for name, values in granule_values(scene).items():
+            _, kind, text = _GRANULE_FIELDS[name]
+            self._put(name, values, ("granule",), kind, text)
+
+    def _series(self, name: str):
+        """An empty, growable (time,) ledger variable."""
+        time = self._h5["time"]
+        ds = self._h5.create_dataset(name, shape=(0,), maxshape=(None,), dtype="f8",
+                                     chunks=time.chunks)
+        ds.attrs.update(_attrs(self._units, "energy", LEDGER_FIELDS[name]))
+        ds.dims[0].attach_scale(time)
+        return ds
+
+    def _put(self, name, data, dims, kind, text, dtype="f8") -> None:
+        """A fixed-size variable attached to existing dimension scales."""
+        text_data = h5py.check_string_dtype(np.dtype(dtype)) is not None
+        data = np.array(data, dtype=object) if text_data else np.asarray(data)
+        ds = self._h5.create_dataset(name, data=data, dtype=dtype)
+        ds.attrs.update(_attrs(self._units, kind, text))
+        for i, dim in enumerate(dims):
+            ds.dims[i].attach_scale(self._h5[dim])
+
+    def write_frame(self, t, x, v, f, kinetic, potential, coulomb, viscous) -> None:
+        """Append one frame: time, state arrays of shape (N,) and the four ledger terms."""
+        i = self._fill
+        self._t[i] = t
+        for buf, arr in zip(self._xvf.values(), (x, v, f)):
+            buf[i] = arr
+        for buf, value in zip(self._led.values(), (kinetic, potential, coulomb, viscous)):
+            buf[i] = value
+        self._fill += 1
+        if self._fill == self._rows:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the buffered frames to the file."""
+        m, n0 = self._fill, self.frames
+        if m == 0:
+            return
+        for name, buf in [("time", self._t), *self._xvf.items(), *self._led.items()]:
+            ds = self._h5[name]
+            ds.resize(n0 + m, axis=0)
+            ds[n0:n0 + m] = buf[:m]
+        self.frames += m
+        self._fill = 0
+
+    def close(self, result) -> None:
+        """Flush, then write the ledger balance, final state, events and status; close the file."""
+        self.flush()
+        h5 = self._h5
+        bal = self._series("balance")
+        bal.resize(self.frames, axis=0)
+        step = 2 ** 16  # the ledger is read back in slices: memory stays bounded
+        for a in range(0, self.frames, step):
+            b = min(a + step, self.frames)
+            k, p, c, w = (h5[name][a:b] for name in ("kinetic", "potential", "coulomb", "viscous"))
+            bal[a:b] = k + p + c + w - result.energy.initial  # EnergyLedger.balance's order
+        self._put("x_final", result.x_final, ("granule",), "length", "final granule position")
+        self._put("v_final", result.v_final, ("granule",), "velocity", "final granule velocity")
+        self._write_events(result.events)
+        h5.attrs.update(final_attrs(result))
+        h5.close()
+
+    def _write_events(self, events) -> None:
+        ev = self._h5.create_dataset("event", data=np.arange(len(events), dtype=np.int64))
+        ev.attrs.update(_attrs(self._units, "", "event number"))
+        ev.make_scale("event")
+        self._put("event_time", [e.t for e in events], ("event",), "time", "time of the event")
+        self._put("event_kind", [e.kind for e in events], ("event",), "",
+                  "contact_close, contact_open, stop or slip", dtype=h5py.string_dtype())
+        self._put("event_index", [e.index for e in events], ("event",), "",
+                  "contact (-1 left wall, N-1 right wall) or granule index", dtype="i8")
+
+    def __enter__(self) -> "TrajectoryWriter":
+        return self
+
+    def __exit__(self, exc_type, *exc) -> None:
+        if self._h5.id.valid:  # not closed with a Result: keep the frames, no status
+            if exc_type is None:
+                self.flush()
+            self._h5.close()
 
 
 def write_trajectory(result, folder: Path, scene=None) -> Path:
-    """Write ``folder/trajectory.h5`` from a Result."""
-    path = Path(folder) / "trajectory.h5"
-    units = (scene.units if scene is not None else "scaled")
-    L, T, V, F, E = (("scaled length", "scaled time", "scaled velocity", "scaled force",
-                      "scaled energy") if units == "scaled" else ("m", "s", "m/s", "N", "J"))
-    with h5py.File(path, "w") as h5:
-        def put(name, data, unit, text):
-            ds = h5.create_dataset(name, data=np.asarray(data))
-            ds.attrs["units"] = unit
-            ds.attrs["description"] = text
+    """Write ``folder/trajectory.h5`` from a finished Result (streamed through
+    :class:`TrajectoryWriter`); returns the path."""
+    led = result.energy
+    with TrajectoryWriter(folder, scene, result.x.shape[1]) as w:
+        for i in range(result.t.size):
+            w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
+                          led.potential[i], led.coulomb[i], led.viscous[i])
+        w.close(result)
+    return w.path
 
-        put("t", result.t, T, "time of each frame, shape (frames,)")
-        put("x", result.x, L, "granule centre positions, shape (frames, granules)")
-        put("v", result.v, V, "granule velocities, shape (frames, granules)")
-        put("f", result.f, F, "net spring force on each granule, shape (frames, granules)")
-        led = result.energy
-        g = h5.create_group("energy")
-        g.attrs["initial"] = led.initial
-        g.attrs["units"] = E
-        for name, arr, text in (
-                ("kinetic", led.kinetic, "sum of m v^2/2"),
-                ("potential", led.potential, "elastic energy of the contacts"),
-                ("coulomb", led.coulomb, "energy dissipated by kinetic friction so far"),
-                ("viscous", led.viscous, "energy dissipated by hydrodynamic friction so far"),
-                ("balance", led.balance, "kinetic+potential+coulomb+viscous-initial")):
-            ds = g.create_dataset(name, data=arr)
-            ds.attrs["units"] = E
-            ds.attrs["description"] = text
-        if result.events:
-            ev = h5.create_group("events")
-            ev.attrs["description"] = "event log of the event stepper, one row per event"
-            put("events/t", [e.t for e in result.events], T, "time of each event")
-            put("events/kind", np.array([e.kind for e in result.events], dtype="S"), "",
-                "contact_close, contact_open, stop or slip")
-            put("events/index", np.array([e.index for e in result.events], dtype=np.int64),
-                "", "contact (-1 left wall, N-1 right wall) or granule index")
-        h5.attrs["status"] = result.status.name.lower()
-        h5.attrs["message"] = result.message
-        h5.attrs["stepper"] = result.stepper
-        if result.dt is not None:
-            h5.attrs["dt"] = result.dt
-        if scene is not None:
-            h5.attrs["scene"] = json.dumps(scene.model_dump(mode="json"))
-    return path
+
+def _scene_from_attr(h5, path):
+    """The scene stored in the file (YAML; JSON in older files, which YAML reads too)."""
+    import yaml
+
+    from ..scene import scene_from_dict
+
+    if "scene" not in h5.attrs:
+        return None
+    return scene_from_dict(yaml.safe_load(str(h5.attrs["scene"])), source=str(path))
+
+
+def read_h5(path, summary: Optional[dict] = None):
+    """Read a trajectory.h5 into ``(Result, Scene or None)``, every array as written.
+
+    ``summary`` (summary.json's content) supplies what files of the earlier
+    layout (``t``, ``energy/*``, ``events/*``) did not hold: final state, steps,
+    wall time and event counts.
+    """
+    from ..readback import summary_info
+    from ..result import EnergyLedger, Event, Result, Status
+
+    summary = summary or {}
+    with h5py.File(path, "r") as h5:
+        a = h5.attrs
+        if "status" not in a:
+            raise ValueError(f"{path}: the run did not finish writing this file (no status)")
+        legacy = "time" not in h5
+        t = h5["t" if legacy else "time"][...]
+        x, v, f = (h5[name][...] for name in FRAME_FIELDS)
+        g = h5["energy"] if legacy else h5
+        initial = float(g.attrs["initial"] if legacy else a["energy_initial"])
+        energy = EnergyLedger(*(g[name][...] for name in ("kinetic", "potential", "coulomb",
+                                                          "viscous")), initial=initial)
+        if legacy:
+            ev = h5["events"] if "events" in h5 else None
+            cols = (ev["t"][...], ev["kind"][...], ev["index"][...]) if ev else ((), (), ())
+        else:
+            cols = (h5["event_time"][...], h5["event_kind"].asstr()[...], h5["event_index"][...])
+        events = [Event(float(s), k.decode() if isinstance(k, bytes) else str(k), int(i))
+                  for s, k, i in zip(*cols)]
+        fin = {**summary, "info": summary_info(summary)} if legacy else {
+            "x_final": h5["x_final"][...], "v_final": h5["v_final"][...],
+            "t_final": a["t_final"], "steps": a["steps"], "wall_time_s": a["wall_time_s"],
+            "event_counts": json.loads(a["event_counts"]), "info": json.loads(a["info"])}
+        result = Result(
+            t=t, x=x, v=v, f=f, energy=energy, status=Status[str(a["status"]).upper()],
+            message=str(a["message"]), steps=int(fin.get("steps", 0)),
+            wall_time=float(fin.get("wall_time_s", 0.0)), stepper=str(a["stepper"]),
+            dt=float(a["dt"]) if "dt" in a else None,
+            t_final=float(fin.get("t_final", t[-1] if t.size else 0.0)),
+            x_final=np.asarray(fin.get("x_final", x[-1] if t.size else []), dtype=np.float64),
+            v_final=np.asarray(fin.get("v_final", v[-1] if t.size else []), dtype=np.float64),
+            events=events, event_counts=dict(fin.get("event_counts", {})),
+            info=dict(fin.get("info", {})))
+        scene = _scene_from_attr(h5, path)
+    return result, scene
 
 
 def read_trajectory(folder):
-    """Read ``folder/trajectory.h5`` (and summary.json if present) back into a Result.
+    """Read a run folder back: ``(Result, Scene or None)`` (see :func:`granular_chain.read_run`)."""
+    from ..readback import read_run
 
-    Returns
-    -------
-    result : Result
-        Frames, energy ledger, status and message as written; ``steps`` and
-        ``wall_time`` come from summary.json when it is there (else 0).
-    scene : Scene or None
-        The scene stored in the file's metadata.
-    """
-    from ..result import EnergyLedger, Event, Result, Status
-    from ..scene import scene_from_dict
+    result = read_run(folder)
+    return result, result.scene
 
-    folder = Path(folder)
-    path = folder / "trajectory.h5"
-    summary = {}
-    if (folder / "summary.json").exists():
-        summary = json.loads((folder / "summary.json").read_text())
-    with h5py.File(path, "r") as h5:
-        t, x, v, f = (h5[name][...] for name in ("t", "x", "v", "f"))
-        g = h5["energy"]
-        energy = EnergyLedger(kinetic=g["kinetic"][...], potential=g["potential"][...],
-                              coulomb=g["coulomb"][...], viscous=g["viscous"][...],
-                              initial=float(g.attrs["initial"]))
-        events = []
-        if "events" in h5:
-            e = h5["events"]
-            events = [Event(float(a), b.decode(), int(c))
-                      for a, b, c in zip(e["t"][...], e["kind"][...], e["index"][...])]
-        status = Status[str(h5.attrs["status"]).upper()]
-        scene = None
-        if "scene" in h5.attrs:
-            scene = scene_from_dict(json.loads(h5.attrs["scene"]), source=str(path))
-        result = Result(
-            t=t, x=x, v=v, f=f, energy=energy, status=status, message=str(h5.attrs["message"]),
-            steps=int(summary.get("steps", 0)), wall_time=float(summary.get("wall_time_s", 0.0)),
-            stepper=str(h5.attrs["stepper"]), dt=float(h5.attrs["dt"]) if "dt" in h5.attrs else None,
-            t_final=float(summary.get("t_final", t[-1])),
-            x_final=np.asarray(summary.get("x_final", x[-1]), dtype=np.float64),
-            v_final=np.asarray(summary.get("v_final", v[-1]), dtype=np.float64),
-            events=events, event_counts=dict(summary.get("event_counts", {})))
-    return result, scene
+
+def to_xarray(result, scene=None):
+    """The run as an ``xarray.Dataset`` with the layout of trajectory.h5 (same names,
+    dimensions, units and attributes)."""
+    import xarray as xr
+
+    units = scene.units if scene is not None else "scaled"
+    coords = {"time": ("time", result.t, {**_attrs(units, "time", "time"), "axis": "T"}),
+              "granule": ("granule", np.arange(result.x.shape[1], dtype=np.int64),
+                          _attrs(units, "", "granule index, 0 at the left end")),
+              "event": ("event", np.arange(len(result.events), dtype=np.int64),
+                        _attrs(units, "", "event number"))}
+    data = {name: (("time", "granule"), getattr(result, name), _attrs(units, kind, text))
+            for name, (kind, text) in FRAME_FIELDS.items()}
+    led = result.energy
+    data.update({name: ("time", getattr(led, name), _attrs(units, "energy", text))
+                 for name, text in LEDGER_FIELDS.items()})
+    for name, values in granule_values(scene).items():
+        _, kind, text = _GRANULE_FIELDS[name]
+        data[name] = ("granule", values, _attrs(units, kind, text))
+    data["x_final"] = ("granule", result.x_final, _attrs(units, "length", "final granule position"))
+    data["v_final"] = ("granule", result.v_final,
+                       _attrs(units, "velocity", "final granule velocity"))
+    ev = result.events
+    data["event_time"] = ("event", np.array([e.t for e in ev], dtype=np.float64),
+                          _attrs(units, "time", "time of the event"))
+    data["event_kind"] = ("event", np.array([e.kind for e in ev], dtype=object),
+                          _attrs(units, "", "contact_close, contact_open, stop or slip"))
+    data["event_index"] = ("event", np.array([e.index for e in ev], dtype=np.int64),
+                           _attrs(units, "", "contact (-1 left wall, N-1 right wall) or "
+                                  "granule index"))
+    return xr.Dataset(data, coords=coords, attrs={**root_attrs(scene), **final_attrs(result)})

@@ -1,0 +1,91 @@
+"""The first run of a scene compiles its kernels; say so, and compile them up front.
+
+numba compiles each kernel specialisation on its first use (10-60 s) and
+caches the machine code on disk (``__pycache__``, or ``NUMBA_CACHE_DIR``), so
+later runs load it in about a second. :func:`prepare_kernels` compiles (or
+loads) what a scene needs by stepping a copy of it for two steps, and, when
+the stepper's kernels are not yet cached, says so on stderr: a ``rich``
+spinner on a terminal, one plain line otherwise.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["kernels_cached", "prepare_kernels", "compile_notice", "NOTICE"]
+
+NOTICE = "compiling kernels, first run only (later runs reuse them) ..."
+_KERNEL_FILES = {"verlet": "verlet.verlet_chunk-*.nbi", "event": "events_kernel.*.nbi"}
+
+
+def kernels_cached(stepper: str) -> bool:
+    """Whether numba's cache holds an index for the stepper's main kernel.
+
+    An index is written with the first compiled specialisation and removed
+    when the package's sources change (see ``granular_chain._drop_stale_kernels``);
+    a scene with a new feature set still compiles once more without notice.
+    """
+    pattern = _KERNEL_FILES.get(stepper, _KERNEL_FILES["verlet"])
+    custom = os.environ.get("NUMBA_CACHE_DIR")
+    root = Path(custom) if custom else Path(__file__).resolve().parent / "steppers" / "__pycache__"
+    return root.is_dir() and next(root.rglob(pattern), None) is not None
+
+
+@contextlib.contextmanager
+def compile_notice(stepper: str, stream=None, quiet: bool = False):
+    """Around the code that compiles: spinner or one line when the kernels are not cached."""
+    stream = sys.stderr if stream is None else stream
+    if quiet or kernels_cached(stepper):
+        yield
+        return
+    if not stream.isatty():
+        print(f"granular-chain: {NOTICE}", file=stream, flush=True)
+        yield
+        return
+    from rich.console import Console
+
+    console = Console(file=stream)
+    start = time.perf_counter()
+    with console.status(NOTICE, spinner="dots"):
+        yield
+    console.print(f"kernels compiled in {time.perf_counter() - start:.1f} s; "
+                  f"later runs load them from the cache", highlight=False)
+
+
+def _two_step_copy(scene):
+    """The scene cut to two steps (same features, same kernels, nothing worth writing)."""
+    from .model import build_model
+    from .simulate import default_dt
+
+    tiny = scene.model_copy(deep=True)
+    model = build_model(scene)
+    if scene.run.stepper == "verlet":
+        dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
+        tiny.run.dt = dt
+        tiny.run.t_end = min(2 * dt, scene.run.t_end)
+    else:
+        period = model.shortest_period()
+        span = 1e-3 * period if math.isfinite(period) else 1e-6 * scene.run.t_end
+        tiny.run.t_end = min(span, scene.run.t_end)
+    tiny.output.dt = None
+    tiny.output.every = 1 if scene.run.stepper == "verlet" else None
+    return tiny
+
+
+def prepare_kernels(scene, *, quiet: bool = False, stream=None) -> float:
+    """Compile or load the kernels ``scene`` needs; returns the seconds it took.
+
+    Called before a run so that the compilation is announced (and the progress
+    bar of the run then measures stepping only).
+    """
+    from .simulate import simulate
+
+    start = time.perf_counter()
+    with compile_notice(scene.run.stepper, stream=stream, quiet=quiet):
+        simulate(_two_step_copy(scene), progress=False)
+    return time.perf_counter() - start
