@@ -99,14 +99,17 @@ def _apply_writer_flags(scene, args) -> None:
 
 
 class _Attached:
-    """The writers attached to one run (they write while it goes), and what is
-    left to write once it has ended."""
+    """The writers attached to one run: they write while it goes, so the frames
+    are not kept in memory (the plots, drawn after the run, read them back)."""
 
     def __init__(self, scene, model, folder: Path, echo: bool):
         from .writers.thermo import ThermoLog, thermo_every
 
         out, run = scene.output, scene.run
         self.writers = []
+        if out.trajectory:
+            from .writers.trajectory import TrajectoryFrames
+            self.writers.append(TrajectoryFrames(folder, scene, model.count))
         if out.csv:
             from .writers.tables import EnergyTable
             self.writers.append(EnergyTable(folder))
@@ -121,29 +124,26 @@ class _Attached:
         else:  # the event stepper hands its frames on after the run: thin them in time
             self.thermo = ThermoLog(model, 0, path, echo, dt=run.t_end / 20)
             self.writers.append(self.thermo)
-        # The trajectory and the plots read the frames from the Result.
-        self.keep_frames = True
+        # Plots without a trajectory to read back need the frames in memory.
+        self.keep_frames = out.plots and not out.trajectory
 
-    def close(self) -> None:
+    def abandon(self) -> None:
+        """Close every file after a failure (the run folder is then removed)."""
         self.thermo.close()
         for w in self.writers:
-            w.close()
+            w.close(None)
 
 
 def _write_outputs(result, folder: Path, scene, stop) -> list[str]:
     """What is written once the run has ended, summary.json last; returns the
     writers a stop request skipped.
 
-    The trajectory and the event table take a fraction of a second and are
-    always written, so an interrupted run keeps what it computed; the plots can
-    take long and are skipped once a stop is asked for (``granular-chain plot
-    RUN_DIR`` draws them later).
+    The event table takes a fraction of a second and is always written; the
+    plots can take long and are skipped once a stop is asked for
+    (``granular-chain plot RUN_DIR`` draws them later).
     """
     out = scene.output
     missed = []
-    if out.trajectory:
-        from .writers.trajectory import write_trajectory
-        write_trajectory(result, folder, scene)
     if out.csv:
         from .writers.tables import write_events_csv
         write_events_csv(result, folder)
@@ -151,7 +151,11 @@ def _write_outputs(result, folder: Path, scene, stop) -> list[str]:
         missed.append("plots")
     elif out.plots:
         from .writers.plots import write_plots
-        write_plots(result, folder, scene)
+        frames = result
+        if out.trajectory:  # the run streamed its frames: read them back
+            from .readback import read_run
+            frames = read_run(folder / "trajectory.h5")
+        write_plots(frames, folder, scene)
     from .writers.summary import write_summary
     write_summary(result, folder, scene)
     return missed
@@ -167,6 +171,18 @@ def _incomplete_reason(result, stop, missed: list[str]) -> str:
     if missed:
         parts.append(f"interrupted while writing: {', '.join(missed)} not (fully) written")
     return "; ".join(parts)
+
+
+def _check_viz(scene) -> None:
+    """Refuse --plots / --vtk up front when the [viz] extra is not installed."""
+    from .rundir import OutputError
+    from .writers.plots import viz_missing
+
+    for flag, wanted, modules in (("--plots", scene.output.plots, ("matplotlib", "pyvista")),
+                                  ("--vtk", scene.output.vtk, ("pyvista",))):
+        missing = wanted and viz_missing(flag, modules)
+        if missing:
+            raise OutputError(missing)
 
 
 def _output_folder(args, scene) -> tuple[Path, bool]:
@@ -190,10 +206,17 @@ def cmd_run(args) -> int:
         out, is_default = _output_folder(args, scene)
         check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
         model = preflight(scene)
+        _check_viz(scene)
     except (SceneError, OutputError) as exc:
         return _fail(str(exc))
     except SimulationError as exc:
         return _fail(f"{args.scene}: {exc}")
+    from .warmup import prepare_kernels
+    try:
+        prepare_kernels(scene, quiet=args.quiet)
+    except KeyboardInterrupt:  # numba cannot be interrupted while it compiles
+        print("granular-chain: interrupted while compiling; nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
     echo = not args.quiet
     about = {"scene_name": scene.name, "scene_source": str(Path(args.scene).resolve()),
              "overrides": list(args.overrides), "stepper": scene.run.stepper}
@@ -205,8 +228,10 @@ def cmd_run(args) -> int:
                     # thermo lines are the progress report; no bar beside them
                     result = simulate(scene, progress=False, writers=attached.writers,
                                       keep_frames=attached.keep_frames, thermo=attached.thermo)
-                finally:
-                    attached.close()
+                except BaseException:
+                    attached.abandon()
+                    raise
+                attached.thermo.close()
                 if result.status == Status.INTERRUPTED and out.exists():
                     # an earlier complete run is worth more than a partial one
                     print(f"granular-chain: interrupted at t = {result.t_final:.6g}; the "

@@ -10,7 +10,9 @@ frames in memory (the first and the latest), whatever the number of frames.
 
 from __future__ import annotations
 
-from typing import NamedTuple, Optional, Protocol, Sequence
+import queue
+import threading
+from typing import NamedTuple, Protocol, Sequence
 
 import numpy as np
 
@@ -76,37 +78,84 @@ class FrameLog:
         and the latest are kept, so memory does not grow with the number of
         frames (the writers have them all), and the largest ledger error over
         every frame is tracked in :attr:`max_balance_error`.
+    background : bool
+        Call the writers from a thread of their own, so that writing a frame
+        overlaps the compiled stepping that follows it (the kernels release the
+        GIL). At most :data:`QUEUED` frames wait, so memory stays bounded; the
+        writers' ``close`` is called from the caller's thread once every frame
+        is written.
     """
 
     _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous")
+    QUEUED = 4
 
-    def __init__(self, writers: Sequence[FrameWriter] = (), keep: bool = True):
+    def __init__(self, writers: Sequence[FrameWriter] = (), keep: bool = True,
+                 background: bool = False):
         self.writers = list(writers)
         self.keep = keep
         self.kept = {name: [] for name in self._FIELDS}
         self.count = 0
         self.max_balance_error = 0.0
+        self._queue = self._thread = self._error = None
+        if background and self.writers:
+            self._queue = queue.Queue(maxsize=self.QUEUED)
+            self._thread = threading.Thread(target=self._write_loop, name="frame-writers",
+                                            daemon=True)
+            self._thread.start()
 
     def record(self, frame: Frame) -> None:
-        for w in self.writers:
-            w.write_frame(frame)
+        """Take one frame (its arrays are copied: the caller may reuse them)."""
+        frame = frame._replace(x=frame.x.copy(), v=frame.v.copy(), f=frame.f.copy())
+        self._hand_on(frame)
         self.count += 1
         self.max_balance_error = max(self.max_balance_error, frame.balance_error)
         replace = not self.keep and self.count > 2  # keep the first, replace the latest
         for name in self._FIELDS:
-            value = getattr(frame, name)
-            if isinstance(value, np.ndarray):
-                value = value.copy()
             if replace:
-                self.kept[name][-1] = value
+                self.kept[name][-1] = getattr(frame, name)
             else:
-                self.kept[name].append(value)
+                self.kept[name].append(getattr(frame, name))
+
+    def _hand_on(self, frame: Frame) -> None:
+        if self._queue is None:
+            for w in self.writers:
+                w.write_frame(frame)
+            return
+        self._raise_error()
+        self._queue.put(frame)
+
+    def _write_loop(self) -> None:
+        while True:
+            frame = self._queue.get()
+            if frame is None:
+                return
+            if self._error is not None:
+                continue  # drain: the caller raises the first error
+            try:
+                for w in self.writers:
+                    w.write_frame(frame)
+            except BaseException as exc:  # handed to the caller's thread
+                self._error = exc
+
+    def _raise_error(self) -> None:
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
+
+    def finish(self) -> None:
+        """Wait until every frame handed on is written (raises a writer's error)."""
+        if self._thread is not None:
+            self._queue.put(None)
+            self._thread.join()
+            self._thread = None
+        self._raise_error()
 
     def array(self, name: str) -> np.ndarray:
         """A kept field over the kept frames: shape (F,) or (F, N)."""
         return np.array(self.kept[name])
 
     def close(self, result) -> None:
-        """Tell every writer the run has ended."""
+        """Every frame written; then tell every writer the run has ended."""
+        self.finish()
         for w in self.writers:
             w.close(result)

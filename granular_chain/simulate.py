@@ -101,11 +101,15 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         warning = next_neighbour_overlap(result.t, result.x, model.radius)
     else:
         watch = NeighbourWatch(model.radius)
-        log = FrameLog([watch, *writers], keep=keep_frames)
-        result = _simulate_verlet(scene, model, progress, log=log, thermo=thermo)
+        log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
+        try:
+            result = _simulate_verlet(scene, model, progress, log=log, thermo=thermo)
+        finally:
+            log.finish()  # (the writers' thread is done before anyone closes their files)
         warning = watch.warning
     if warning:
         result.info.setdefault("warnings", []).append(warning)
+    result.scene = scene
     return result
 
 

@@ -98,3 +98,38 @@ def test_cli_run_writes_thermo_and_prints_it(tmp_path, monkeypatch, capsys):
     rows = list(csv.DictReader((tmp_path / "r" / "thermo.csv").open()))
     assert len(rows) == len(printed[1:1 + len(rows)]) and int(rows[1]["step"]) == 100
     assert (tmp_path / "r" / "energy.csv").exists()
+
+
+MEMORY_CHILD = """
+import sys
+from granular_chain.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def _peak_rss_mib(args, cwd) -> float:
+    import os
+    import subprocess
+    import sys
+    proc = subprocess.Popen([sys.executable, "-c", MEMORY_CHILD, *args], cwd=cwd,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0, proc.stderr.read()
+    return usage.ru_maxrss / 1024  # kB on Linux
+
+
+def test_memory_does_not_grow_with_the_number_of_frames(tmp_path):
+    """A 2000-grain run writing 200 frames and one writing 5000 (240 MB of frames,
+    streamed to trajectory.h5 and energy.csv) peak within 10 % of each other."""
+    scene = tmp_path / "s.yaml"
+    scene.write_text("name: mem\ngranules: {count: 2000, velocity: {0: 1.0}}\n"
+                     "contacts: {exponent: 2.5}\nrun: {t_end: 50, dt: 0.01}\n")
+    peaks = {}
+    for frames in (200, 5000):
+        every = 5000 // frames
+        peaks[frames] = _peak_rss_mib(
+            ["run", str(scene), "--out", f"r{frames}", "--quiet", "--csv",
+             "--set", f"output.every={every}"], tmp_path)
+        assert gc.read_run(tmp_path / f"r{frames}").t.size == frames + 1
+    # kept in memory, the 5000 frames alone would add 3 x 5001 x 2000 x 8 B = 229 MiB
+    assert abs(peaks[5000] - peaks[200]) < 0.10 * peaks[200], peaks

@@ -243,7 +243,7 @@ def synchronise(v, f, eta, eta_s, inv_m, h, vs):
     return w, n_stop, n_slip
 
 
-@numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})
+@numba.njit(cache=True, nogil=True, fastmath={"reassoc", "contract", "nsz"})
 def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform,
                  u, v, f, active, d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2,
                  dt, n_steps, opening, stop_contact, ledger, counts, olim, fcap):

@@ -159,6 +159,7 @@ class VerletRun:
                  log: Optional[FrameLog] = None, thermo=None):
         settings = scene.run
         self.model, self.thermo = model, thermo
+        self.T = model.shortest_period()  # period or collision time of the stiffest contact
         self.log = log if log is not None else FrameLog()
         self.plan = plan = step_plan(model, scene)
         if settings.check_dt:
@@ -204,9 +205,10 @@ class VerletRun:
         self.steps, self.t_now, self.dt_now = 0, 0.0, dt
         self.short_taken = False
 
-    def frame(self) -> Frame:
-        """The synchronised state at the current time, with its ledger."""
-        ke, pe = self.model.energies(self.u, self.vs)
+    def frame(self, energies=None) -> Frame:
+        """The synchronised state at the current time, with its ledger (``energies``:
+        the kinetic and elastic energy when already known)."""
+        ke, pe = energies if energies is not None else self.model.energies(self.u, self.vs)
         return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
                      self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
 
@@ -253,11 +255,11 @@ class VerletRun:
             if not (at_frame or at_thermo):
                 continue
             code = self._synchronise(code)
-            ended = self._check(code)
+            ended, energies = self._check(code)
             if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
                                                   Status.UNSTABLE):
                 return ended
-            frame = self.frame()
+            frame = self.frame(energies)
             if self.thermo is not None and (at_thermo or ended is not None):
                 self.thermo.write_frame(frame)
                 next_thermo = self.steps + thermo_every if thermo_every else math.inf
@@ -311,14 +313,15 @@ class VerletRun:
         return code
 
     def _check(self, code: int):
-        """(status, message) when the run ends here, else None."""
-        model, u, vs, dt, T = self.model, self.u, self.vs, self.plan.dt, self.model.shortest_period()
+        """``((status, message) or None, (kinetic, potential))``: whether the run ends
+        here, and the energies of the state it ends or goes on with."""
+        model, u, vs, dt, T = self.model, self.u, self.vs, self.plan.dt, self.T
         if not (np.all(np.isfinite(u)) and np.all(np.isfinite(vs))):
             bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(vs)))[0])
-            return Status.NONFINITE, (
+            return (Status.NONFINITE, (
                 f"non-finite state by t = {self.t_now:.6g} at granule {bad}: the step dt = "
                 f"{dt:g} is likely too large for the stiffest contact (period or collision time "
-                f"{T:.4g}); reduce run.dt")
+                f"{T:.4g}); reduce run.dt")), None
         ended = None
         if code == verlet.SEPARATED:
             self.t_now = _backtrack_to_separation(model, u, vs, self.f, self.ledger,
@@ -335,17 +338,17 @@ class VerletRun:
             if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
                 message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
                             f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
-            return Status.OVERLAP, message
+            return (Status.OVERLAP, message), None
         ke, pe = model.energies(u, vs)
         balance = abs(ke + pe + self.ledger[0] - self.sync[0] + self.ledger[1] - self.e0)
         if self.e0 > 0 and not balance <= _UNSTABLE_BALANCE * self.e0:
             # A stable run balances its ledger to O(dt^2); an error as large
             # as the initial energy itself means the integration blew up.
-            return Status.UNSTABLE, (
+            return (Status.UNSTABLE, (
                 f"energy ledger off by {balance / self.e0:.3g} x the initial energy at "
                 f"t = {self.t_now:.6g}: the integration is unstable; reduce run.dt (now "
-                f"{dt:g}; stiffest contact time {T:.4g})")
-        return ended
+                f"{dt:g}; stiffest contact time {T:.4g})")), None
+        return ended, (ke, pe)
 
 
 def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt, counts):
@@ -356,8 +359,9 @@ def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt,
     x, v = log.array("x"), log.array("v")
     counts_d = dict(zip(verlet.EVENT_KINDS, (int(n) for n in counts)))
     info = {"features": model.features.describe(), "granules": model.count,
-            "units": model.units, "frames": log.count}
+            "units": model.units}
     if not log.keep:
+        info["frames"] = log.count
         info["frames_kept"] = "first and last (the others were streamed to the writers)"
         info["max_balance_error_relative"] = log.max_balance_error
     if model.units == "physical":

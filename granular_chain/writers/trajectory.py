@@ -279,6 +279,39 @@ class TrajectoryWriter:
             self._h5.close()
 
 
+class TrajectoryFrames:
+    """``trajectory.h5`` as a frame writer attached to a run (frames appended as they come).
+
+    Parameters
+    ----------
+    folder : path
+        Where ``trajectory.h5`` is written.
+    scene : Scene
+        Stored in the file; sets the units.
+    count : int
+        Number of granules N.
+    """
+
+    def __init__(self, folder, scene, count: int):
+        self.writer = TrajectoryWriter(folder, scene, count)
+        self._open = True
+
+    def write_frame(self, frame) -> None:
+        self.writer.write_frame(frame.t, frame.x, frame.v, frame.f, frame.kinetic,
+                                frame.potential, frame.coulomb, frame.viscous)
+
+    def close(self, result=None) -> None:
+        """With the run's Result: the final state, events and status; without
+        (the run raised): the frames so far, no status."""
+        if not self._open:
+            return
+        self._open = False
+        if result is None:
+            self.writer.__exit__(None, None, None)
+        else:
+            self.writer.close(result)
+
+
 def write_trajectory(result, folder: Path, scene=None) -> Path:
     """Write ``folder/trajectory.h5`` from a finished Result (streamed through
     :class:`TrajectoryWriter`); returns the path."""

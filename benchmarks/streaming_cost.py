@@ -1,0 +1,90 @@
+"""What writing while the run goes costs: throughput with frames streamed to disk
+against the same run with no output.
+
+A struck Hertz chain (m = 1, radius 0.5, k = 1, n = 5/2, dt = 0.01, scaled
+units), Coulomb and viscous friction on every granule when asked. Three ways,
+interleaved, best of --repeat each:
+
+- ``none``: one frame at the end, no writers (the stepping alone);
+- ``trajectory``: a frame every --every steps appended to trajectory.h5;
+- ``all``: the same plus energy.csv and the thermo log (thermo.csv, 20 lines).
+
+Prints one JSON line per way: seconds, grain-steps per second, frames, and the
+rate relative to ``none``.
+
+    python benchmarks/streaming_cost.py --grains 10000 --steps 20000 --every 100
+"""
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import granular_chain as gc
+from granular_chain.model import build_model
+from granular_chain.simulate import _simulate_verlet
+from granular_chain.frames import FrameLog
+from granular_chain.writers.tables import EnergyTable
+from granular_chain.writers.thermo import ThermoLog
+from granular_chain.writers.trajectory import TrajectoryFrames
+
+FRICTION = {"frictionless": {}, "coulomb+viscous": {"kinetic": 1e-3, "viscous": 1e-2}}
+
+
+def scene(grains, steps, every, features):
+    return gc.scene_from_dict({
+        "name": "streaming",
+        "granules": {"count": grains, "velocity": {0: 1.0}, "friction": FRICTION[features]},
+        "contacts": {"exponent": 2.5},
+        "run": {"dt": 0.01, "t_end": steps * 0.01},
+        "output": {"every": every}})
+
+
+def run(way, grains, steps, every, features, folder: Path):
+    s = scene(grains, steps, steps if way == "none" else every, features)
+    model = build_model(s)
+    writers, thermo = [], None
+    if way != "none":
+        writers.append(TrajectoryFrames(folder, s, grains))
+    if way == "all":
+        writers.append(EnergyTable(folder))
+        thermo = ThermoLog(model, max(1, steps // 20), folder / "thermo.csv")
+    start = time.perf_counter()
+    r = _simulate_verlet(s, model, False, log=FrameLog(writers, keep=False, background=True),
+                         thermo=thermo)
+    seconds = time.perf_counter() - start
+    if thermo is not None:
+        thermo.close()
+    return seconds, r.info["frames"]
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--grains", type=int, default=10_000)
+    p.add_argument("--steps", type=int, default=20_000)
+    p.add_argument("--every", type=int, default=100)
+    p.add_argument("--features", choices=list(FRICTION), default="frictionless")
+    p.add_argument("--repeat", type=int, default=5)
+    a = p.parse_args()
+    ways = ("none", "trajectory", "all")
+    best = {w: (float("inf"), 0) for w in ways}
+    with tempfile.TemporaryDirectory() as tmp:
+        run("none", a.grains, 10, 5, a.features, Path(tmp))  # compile or load the kernel
+        for _ in range(a.repeat):
+            for w in ways:
+                folder = Path(tmp) / f"{w}"
+                folder.mkdir(exist_ok=True)
+                seconds, frames = run(w, a.grains, a.steps, a.every, a.features, folder)
+                best[w] = min(best[w], (seconds, frames))
+    base = a.grains * a.steps / best["none"][0]
+    for w in ways:
+        seconds, frames = best[w]
+        rate = a.grains * a.steps / seconds
+        print(json.dumps({"way": w, "grains": a.grains, "steps": a.steps, "every": a.every,
+                          "features": a.features, "frames": frames, "seconds": seconds,
+                          "grain_steps_per_s": rate, "relative": rate / base}))
+
+
+if __name__ == "__main__":
+    main()
