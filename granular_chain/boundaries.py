@@ -52,7 +52,9 @@ import numpy as np
 
 from .two_granules import Outcome, collide
 
-__all__ = ["PARAMS", "Boundary", "Boundaries", "find_boundaries", "separation_limit"]
+__all__ = ["PARAMS", "Boundary", "Boundaries", "find_boundaries", "separation_limit", "BoundaryCurve",
+           "trace_curves", "write_curves", "plot_curves", "add_boundaries_parser",
+           "run_boundaries_command"]
 
 #: Parameters a path may vary; ``eta``/``gamma`` set both granules' values.
 PARAMS = ("eta1", "eta2", "eta", "gamma1", "gamma2", "gamma", "n")
@@ -726,3 +728,209 @@ def _run_tasks(fn, args, executor, client, workers):
             own.close()
         if cluster is not None:
             cluster.close()
+
+
+# ----------------------------------------------------------------------------
+# Output: CSV / JSON of curves, the figure over the collision map
+# ----------------------------------------------------------------------------
+def write_curves(curves, folder, stem: str = "boundaries") -> list:
+    """``folder/<stem>_curves.csv`` (curve, x, y, nx, ny, below, above) and
+    ``folder/<stem>_curves.json`` (every :class:`BoundaryCurve` as a dict)."""
+    from pathlib import Path
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    csv_path, json_path = folder / f"{stem}_curves.csv", folder / f"{stem}_curves.json"
+    xn, yn = curves[0].plane if curves else ("x", "y")
+    lines = [f"curve,{xn},{yn},n_{xn},n_{yn},below,above"]
+    for i, c in enumerate(curves):
+        for p, nv in zip(c.points, c.normals):
+            lines.append(f"{i},{p[0]!r},{p[1]!r},{nv[0]!r},{nv[1]!r},{c.below},{c.above}")
+    csv_path.write_text("\n".join(lines) + "\n")
+    json_path.write_text(json.dumps({"curves": [c.to_dict() for c in curves]}, indent=1) + "\n")
+    return [csv_path, json_path]
+
+
+def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str] = None):
+    """The curves drawn over the outcome map (``m`` x ``m`` collisions, event
+    stepper) of the plane; corners marked. Returns the path written."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import ListedColormap
+
+    from .two_granules import OUTCOMES, collision_map
+    xn, yn = curves[0].plane
+    v = _Problem(xn, fixed).values
+    x = np.linspace(box[0][0], box[0][1], m)
+    y = np.linspace(box[1][0], box[1][1], m)
+    X, Y = np.meshgrid(x, y)
+    args = {"eta1": v["eta1"], "eta2": v["eta2"], "gamma1": v["gamma1"], "gamma2": v["gamma2"]}
+    for name, grid in ((xn, X), (yn, Y)):
+        for key in ((name + "1", name + "2") if name in ("eta", "gamma") else (name,)):
+            args[key] = grid
+    cm = collision_map(args["eta1"], args["eta2"], n=v["n"], gamma=(args["gamma1"], args["gamma2"]))
+    colours = ["#9ecae1", "#a1d99b", "#fdae6b", "#dadaeb", "#d9d9d9", "#fcbba1"]
+    fig, ax = plt.subplots(figsize=(6.4, 5.6))
+    ax.pcolormesh(x, y, cm.outcome, cmap=ListedColormap(colours), vmin=-0.5, vmax=5.5,
+                  shading="nearest")
+    for c in curves:
+        ax.plot(c.points[:, 0], c.points[:, 1], "k-", lw=1.2)
+        for corner in c.corners:
+            ax.plot(*corner[0], "ro", ms=4)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colours[i]) for i in range(len(OUTCOMES))]
+    present = sorted(set(int(k) for k in np.unique(cm.outcome)) - {-1})
+    ax.legend([handles[i] for i in present], [OUTCOMES[i].name for i in present],
+              loc="upper right", fontsize=7)
+    ax.set_xlabel(xn)
+    ax.set_ylabel(yn)
+    ax.set_title(title or f"outcome boundaries, n = {v['n']:g}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+# ----------------------------------------------------------------------------
+# The command: granular-chain boundaries
+# ----------------------------------------------------------------------------
+class _BadInput(Exception):
+    pass
+
+
+def add_boundaries_parser(subparsers) -> argparse.ArgumentParser:
+    """Register ``granular-chain boundaries``."""
+    p = subparsers.add_parser(
+        "boundaries", help="find where the two-granule outcome changes along a parameter",
+        description="Outcome boundaries of the two-granule collision (event stepper): every "
+        "value of --param in --range where the outcome changes, to --tol relative. With "
+        "--y-param, trace the boundary curves of the plane instead (CSV, JSON, PNG in --out).")
+    p.add_argument("problem", nargs="?", default=None, metavar="SCENE_OR_PROBLEM",
+                   help="a two-granule scene YAML (n, eta, gamma taken from it) or "
+                   "'two_granules' (default: the paper's problem, n = 2, no friction)")
+    p.add_argument("--param", required=True, help=f"one of {', '.join(PARAMS)}")
+    p.add_argument("--range", nargs=2, type=float, required=True, metavar=("LO", "HI"))
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="NAME=VALUE",
+                   help="fix another parameter (n, eta1, eta2, eta, gamma1, gamma2, gamma), "
+                   "or rtol, t_max (repeatable)")
+    p.add_argument("--tol", type=float, default=1e-12, help="relative tolerance (1e-12)")
+    p.add_argument("--grid", type=int, default=128, help="scan points (128)")
+    p.add_argument("--by", choices=("outcome", "events"), default="outcome",
+                   help="what must change: the outcome, or also the sequence of events")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.add_argument("--y-param", default=None, help="2-D: the y parameter of the plane")
+    p.add_argument("--y-range", nargs=2, type=float, default=None, metavar=("LO", "HI"))
+    p.add_argument("--out", default=None, help="2-D: folder for boundaries_curves.csv/.json/.png")
+    p.add_argument("--dask", action="store_true", help="2-D: seed lines on a dask LocalCluster")
+    return p
+
+
+def _fixed_from(args) -> tuple:
+    """(fixed values, options) from SCENE_OR_PROBLEM and --set."""
+    from .scene import SceneError, load_scene
+    fixed, opts = {}, {}
+    if args.problem not in (None, "two_granules"):
+        try:
+            scene = load_scene(args.problem)
+        except SceneError as exc:
+            raise _BadInput(str(exc)) from None
+        g = scene.granules
+        if g.count != 2:
+            raise _BadInput(f"{args.problem}: boundaries need a two-granule scene, this one has "
+                            f"{g.count} granules")
+        pair = lambda a: [float(a)] * 2 if np.isscalar(a) else [float(b) for b in a]  # noqa: E731
+        n = scene.contacts.exponent
+        fixed["n"] = float(n if np.isscalar(n) else n[0])
+        fixed["eta1"], fixed["eta2"] = pair(g.friction.kinetic)
+        fixed["gamma1"], fixed["gamma2"] = pair(g.friction.viscous)
+    for item in args.sets:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in set(_DEFAULTS) | {"eta", "gamma", "rtol", "t_max"}:
+            raise _BadInput(f"--set {item!r}: expected NAME=VALUE with NAME one of n, eta1, "
+                            f"eta2, eta, gamma1, gamma2, gamma, rtol, t_max")
+        try:
+            x = float(value)
+        except ValueError:
+            raise _BadInput(f"--set {item!r}: {value!r} is not a number") from None
+        if not math.isfinite(x) or x < 0 or (name in ("n", "rtol", "t_max") and x <= 0):
+            raise _BadInput(f"--set {item!r}: must be finite and "
+                            f"{'positive' if name in ('n', 'rtol', 't_max') else '>= 0'}")
+        if name in ("rtol", "t_max"):
+            opts[name] = x
+        elif name in ("eta", "gamma"):
+            fixed[name + "1"] = fixed[name + "2"] = x
+        else:
+            fixed[name] = x
+    if fixed.get("n", 2.0) <= 1:
+        raise _BadInput(f"n must be > 1; got {fixed['n']}")
+    return fixed, opts
+
+
+def _table(res: Boundaries) -> str:
+    rows = [f"{'value':>22}  {'bracket width':>13}  {'below':<27} {'above':<27} "
+            f"{'collisions':>10} {'ms':>8}  error"]
+    for b in res:
+        err = "-" if b.error is None else f"{b.error:.1e}"
+        rows.append(f"{b.value:22.16g}  {b.bracket[1] - b.bracket[0]:13.2e}  {b.below:<27} "
+                    f"{b.above:<27} {b.collisions:>10d} {1e3 * b.seconds:8.2f}  {err}")
+    rows.append(f"scan: {res.grid} points, {res.scan_collisions} collisions, "
+                f"{res.scan_seconds:.3f} s; fixed: "
+                + ", ".join(f"{k} = {v:g}" for k, v in res.fixed.items()))
+    return "\n".join(rows)
+
+
+def run_boundaries_command(args) -> int:
+    """Entry point of ``granular-chain boundaries``: 0 ok, 2 bad input."""
+    try:
+        fixed, opts = _fixed_from(args)
+        if args.param not in PARAMS:
+            raise _BadInput(f"--param {args.param!r}: expected one of {', '.join(PARAMS)}")
+        fixed.pop(args.param, None)
+        if args.param in ("eta", "gamma"):
+            fixed.pop(args.param + "1", None), fixed.pop(args.param + "2", None)
+        lo, hi = args.range
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise _BadInput(f"--range {lo:g} {hi:g}: expected finite LO < HI")
+        if args.param != "n" and lo < 0:
+            raise _BadInput(f"--range: {args.param} must be >= 0")
+        if args.param == "n" and lo <= 1:
+            raise _BadInput("--range: n must be > 1")
+        if args.grid < 2 or not 0 < args.tol < 1:
+            raise _BadInput("--grid must be >= 2 and --tol in (0, 1)")
+        if args.y_param is not None:
+            return _run_plane(args, fixed, opts)
+        res = find_boundaries(args.param, lo, hi, fixed, args.tol, grid=args.grid, by=args.by,
+                              rtol=opts.get("rtol"), t_max=opts.get("t_max", 1000.0))
+    except (_BadInput, ValueError) as exc:
+        print(f"granular-chain: {exc}", file=sys.stderr)
+        return 2
+    print(json.dumps(res.to_dict(), indent=2) if args.json else _table(res))
+    return 0
+
+
+def _run_plane(args, fixed, opts) -> int:
+    if args.y_range is None or args.out is None:
+        raise _BadInput("--y-param needs --y-range LO HI and --out FOLDER")
+    if args.y_param not in PARAMS or "n" in (args.param, args.y_param):
+        raise _BadInput(f"--y-param {args.y_param!r}: the plane's parameters must be frictions")
+    box = (tuple(args.range), tuple(args.y_range))
+    if not (box[1][0] < box[1][1]) or box[1][0] < 0:
+        raise _BadInput("--y-range: expected 0 <= LO < HI")
+    for k in (args.y_param,) + ((args.y_param + "1", args.y_param + "2")
+                                if args.y_param in ("eta", "gamma") else ()):
+        fixed.pop(k, None)
+    curves = trace_curves((args.param, args.y_param), box, fixed, args.tol,
+                          t_max=opts.get("t_max", 1000.0), rtol=opts.get("rtol"),
+                          executor="dask" if args.dask else "serial")
+    from pathlib import Path
+    paths = write_curves(curves, Path(args.out)) if curves else []
+    if curves:
+        paths.append(plot_curves(curves, Path(args.out) / "boundaries_curves.png", box, fixed))
+    summary = {"curves": [{k: v for k, v in c.to_dict().items() if k not in ("points", "normals")}
+                          | {"points": len(c.points)} for c in curves],
+               "files": [str(p) for p in paths]}
+    print(json.dumps(summary, indent=2) if args.json else
+          "\n".join(f"{c.below} | {c.above}: {len(c.points)} points, ends {c.ends}, "
+                    f"{c.collisions} collisions" for c in curves)
+          + "".join(f"\nwrote {p}" for p in paths))
+    return 0
