@@ -159,6 +159,7 @@ class _Problem:
         self.param, self.by, self.rtol, self.t_max = param, by, rtol, float(t_max)
         self.count = 0
         self.floor = 0.0  # absolute floor of the bracket width (find_boundaries sets it)
+        self.secant = True  # indicator-guided probes where an indicator exists
 
     def point(self, x: float) -> dict:
         v = dict(self.values)
@@ -206,12 +207,14 @@ def _indicator(la: str, lb: str, n: float):
     return (lambda c: (c.v1, c.v2)[i]), f"v{i + 1}"
 
 
-def _secant_guess(pts):
+def _secant_guess(pts, power=1.0):
     """Zero of the line through the two points nearest the zero of the indicator
-    (smallest |f|), or None. ``pts``: list of (x, f) with f != 0."""
+    (smallest |f|), in ``sign(f) |f|^power`` (power 2 for an indicator vanishing
+    like a square root), or None. ``pts``: list of (x, f) with f != 0."""
     if len(pts) < 2:
         return None
     (x0, f0), (x1, f1) = sorted(pts, key=lambda p: abs(p[1]))[:2]
+    f0, f1 = math.copysign(abs(f0) ** power, f0), math.copysign(abs(f1) ** power, f1)
     if f0 == f1:
         return None
     return x1 - f1 * (x1 - x0) / (f1 - f0)
@@ -233,17 +236,17 @@ def _refine(prob: _Problem, a, ca, b, cb, tol: float) -> list:
     la, lb = prob.label(ca), prob.label(cb)
     oa, ob = ca.outcome.name, cb.outcome.name
     n = prob.point(a)["n"]
-    ind = _indicator(oa, ob, n) if oa != ob else None
+    ind = _indicator(oa, ob, n) if oa != ob and prob.secant else None
     fn, method = ind if ind is not None else (None, "bisection")
     if fn is not None:
         method = "secant:" + method
     pts = [(x, f) for x, c in ((a, ca), (b, cb)) for f in ([fn(c)] if fn else [])
            if f != 0.0 and math.isfinite(f)]
-    g_prev, bisect = None, fn is None
+    g_prev, bisect, power, failures = None, fn is None, 1.0, 0
     while not _narrow(a, b, tol, prob.floor):
         width = b - a
         probes = []
-        g = None if bisect else _secant_guess(pts)
+        g = None if bisect else _secant_guess(pts, power)
         if g is not None and a < g < b:
             # straddle the prediction by twice the last change of prediction
             e = 2 * abs(g - g_prev) if g_prev is not None else width / 16
@@ -267,8 +270,15 @@ def _refine(prob: _Problem, a, ca, b, cb, tol: float) -> list:
                 f = fn(c)
                 if f != 0.0 and math.isfinite(f):
                     pts.append((x, f))
-        # a secant round that did not halve the bracket: bisect once
+        # a secant round that did not halve the bracket: bisect once and switch
+        # between the indicator and its square (square-root vanishing); after four
+        # such rounds, bisection only
         bisect = fn is None or (not bisect and b - a > width / 2)
+        if bisect and fn is not None and g is not None:
+            g_prev, failures = None, failures + 1
+            power = 3.0 - power  # 1 <-> 2
+            if failures >= 4:
+                fn, method = None, method + "+bisection"
     return [Boundary(param=prob.param, value=a + (b - a) / 2, bracket=(a, b), below=oa, above=ob,
                      collisions=prob.count - start, seconds=time.perf_counter() - t0,
                      method=method, events_below=_kinds(ca), events_above=_kinds(cb))]
@@ -279,7 +289,7 @@ def _stepper_error(prob: _Problem, bd: Boundary, tol: float) -> Boundary:
     stepper's contribution. Counts those collisions and seconds into ``bd``."""
     t0, start = time.perf_counter(), prob.count
     tight = _Problem(prob.param, prob.values, prob.by, (prob.rtol or 1e-12) / 10, prob.t_max)
-    tight.floor = prob.floor
+    tight.floor, tight.secant = prob.floor, prob.secant
     x, h = bd.value, max(1e-7 * abs(bd.value), 1e-12)
     ca, cb = tight.collide(x - h), tight.collide(x + h)
     found = []
@@ -295,7 +305,7 @@ def _stepper_error(prob: _Problem, bd: Boundary, tol: float) -> Boundary:
 def find_boundaries(param: str, lo: float, hi: float, fixed: Optional[dict] = None,
                     tol: float = 1e-12, *, grid: int = 128, by: str = "outcome",
                     rtol: Optional[float] = None, t_max: float = 1000.0,
-                    error: Optional[bool] = None) -> Boundaries:
+                    error: Optional[bool] = None, secant: bool = True) -> Boundaries:
     """Every value of ``param`` in [lo, hi] where the two-granule outcome changes.
 
     Parameters
@@ -323,6 +333,9 @@ def find_boundaries(param: str, lo: float, hi: float, fixed: Optional[dict] = No
     error : bool, optional
         Estimate each boundary's stepper error (refind with rtol/10); default:
         when n != 2 somewhere on the path.
+    secant : bool
+        Use the smooth indicators where they exist (False: bisection on the
+        outcome only; for comparison).
 
     Returns
     -------
@@ -339,6 +352,7 @@ def find_boundaries(param: str, lo: float, hi: float, fixed: Optional[dict] = No
     prob = _Problem(param, fixed, by=by, rtol=rtol, t_max=t_max)
     # a relative width cannot be reached at a boundary at 0: floor it
     prob.floor = tol * tol * (hi - lo)
+    prob.secant = bool(secant)
     t0 = time.perf_counter()
     xs = np.linspace(lo, hi, grid)
     cs = [prob.collide(float(x)) for x in xs]
