@@ -1,6 +1,9 @@
 """Cost of a boundary point: collisions and seconds to refine one outcome boundary
 to 1e-12 relative (granular_chain.boundaries), n = 2 and n = 5/2.
 
+Also writes the thresholds table of docs/boundaries.md (paper value, exact value,
+engine value, digits) to benchmarks/results/boundaries_thresholds.json.
+
 Usage::
 
     PYTHONPATH=. python benchmarks/boundary_cost.py [--repeat 20] [--out benchmarks/results/boundaries.json]
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import platform
 import statistics
 import subprocess
@@ -49,11 +53,74 @@ def _case(param, lo, hi, fixed, by, secant, repeat):
     return out, scan
 
 
+def _pick(bs, below, above, lo=-1.0, hi=1e9):
+    return [b for b in bs if (b.below, b.above) == (below, above) and lo < b.value < hi][0]
+
+
+def _digits(v, exact):
+    d = abs(v - exact) / abs(exact)
+    return 17.0 if d == 0 else -math.log10(d)
+
+
+def thresholds(out):
+    """The paper's thresholds from parameter ranges (the table of docs/boundaries.md)."""
+    from granular_chain import paper as P
+    from granular_chain.boundaries import separation_limit
+    pick, digits = _pick, _digits
+    rows = []
+
+    def row(name, paper, exact, b, extra=None):
+        r = {"threshold": name, "paper": paper, "exact": exact, "engine": b.value,
+             "bracket": list(b.bracket), "collisions": b.collisions, "ms": 1e3 * b.seconds,
+             "method": b.method, "error": b.error,
+             "digits_vs_exact": None if exact is None else round(digits(b.value, exact), 1)}
+        if extra: r.update(extra)
+        rows.append(r)
+        print(json.dumps(r))
+
+    bs = find_boundaries("eta2", 0, 1)
+    row("both move iff eta2 < eta_max (n=2, eta1=0)", "(1+pi^2/8)^(-1/2) = 0.669...",
+        float(P.iia_eta_max(exact=True)), pick(bs, "backscatter_and_propagation", "backscatter_only"))
+    bs = find_boundaries("eta1", 0, 1, by="events")
+    row("backscattering ends (n=2, eta2=0)", "~0.22", float(P.iib_backscatter_threshold_eta_exact(dps=25)),
+        pick(bs, "backscatter_and_propagation", "propagation_only", 0.1))
+    row("granule 1 stops sliding back (n=2, eta2=0; by events)", "0.439 (printed; 0.4388612 root of the approximate condition)",
+        float(P.iib_slip_critical_eta_exact(dps=25)), pick(bs, "propagation_only", "propagation_only", 0.3))
+    bs = find_boundaries("gamma", 2, 4)
+    s8 = math.sqrt(8)
+    for b in bs:
+        row(f"never separate, equal gamma (n=2): engine edge {b.below}|{b.above}", "sqrt(8) = 2.8284...", s8, b)
+    t = time.perf_counter()
+    v, err, n = separation_limit("gamma", bs[0].bracket[0], bs[-1].bracket[1])
+    rows.append({"threshold": "never separate, equal gamma (n=2): 1/t_sep^2 -> 0 extrapolation",
+                 "paper": "sqrt(8)", "exact": s8, "engine": v, "error": err, "collisions": n,
+                 "ms": 1e3 * (time.perf_counter() - t), "digits_vs_exact": round(digits(v, s8), 1)})
+    print(rows[-1])
+    bs = find_boundaries("gamma", 1, 2, {"n": 2.5})
+    row("never separate, equal gamma (n=5/2)", "(not given)", None,
+        pick(bs, "backscatter_and_propagation", "no_separation"),
+        {"reference": "scipy DOP853 bisection: [1.4883892680765718, 1.4883892680772992]"})
+    bs = find_boundaries("eta2", 0.3, 1, {"n": 2.5})
+    row("both move iff eta2 < eta_max (n=5/2)", "shrinks as n grows", None,
+        pick(bs, "backscatter_and_propagation", "backscatter_only"))
+    bs = find_boundaries("eta1", 0.05, 1, {"n": 2.5})
+    row("backscattering ends (n=5/2, eta2=0)", "(Fig. hertz)", None,
+        pick(bs, "backscatter_and_propagation", "propagation_only"))
+    bs = find_boundaries("eta2", 0.3, 1, {"n": 3.0})
+    row("both move iff eta2 < eta_max (n=3)", "shrinks as n grows", None,
+        pick(bs, "backscatter_and_propagation", "backscatter_only"))
+    Path(out).write_text(json.dumps({"thresholds": rows}, indent=2) + "\n")
+    print(f"wrote {out}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=20)
     ap.add_argument("--out", default="benchmarks/results/boundaries.json")
+    ap.add_argument("--thresholds", default="benchmarks/results/boundaries_thresholds.json",
+                    help="where the thresholds table goes")
     args = ap.parse_args()
+    thresholds(args.thresholds)
     for c in CASES:  # warm: compile kernels, build batches
         find_boundaries(*c[1:5], by=c[5], grid=8, error=False)
     results = {"machine": platform.processor() or platform.machine(),
