@@ -123,7 +123,7 @@ class Boundaries(list):
     scan_seconds : float
     grid : int
     fixed : dict
-        Every parameter's value off the path (n, eta1, eta2, gamma1, gamma2).
+        The value of every parameter not on the path (of n, eta1, eta2, gamma1, gamma2).
     """
 
     scan_collisions: int = 0
@@ -358,7 +358,8 @@ def find_boundaries(param: str, lo: float, hi: float, fixed: Optional[dict] = No
     cs = [prob.collide(float(x)) for x in xs]
     out = Boundaries()
     out.scan_collisions, out.scan_seconds = prob.count, time.perf_counter() - t0
-    out.grid, out.fixed = grid, {k: v for k, v in prob.values.items()}
+    varied = {param + "1", param + "2"} if param in ("eta", "gamma") else {param}
+    out.grid, out.fixed = grid, {k: v for k, v in prob.values.items() if k not in varied}
     if error is None:
         error = param == "n" or prob.values["n"] != 2.0
     for i in range(grid - 1):

@@ -171,3 +171,15 @@ def test_cli_takes_friction_from_a_two_granule_scene(capsys):
     lo, hi = b["bracket"]
     assert collide(2, eta=(lo, 0.3), stepper="event").outcome.name == b["below"]
     assert collide(2, eta=(hi, 0.3), stepper="event").outcome.name == b["above"]
+
+
+def test_trace_on_dask_gives_the_serial_curves():
+    """The seed lines as dask tasks (LocalCluster, 2 processes): the same curves,
+    bit for bit, in the same order."""
+    kw = dict(plane=("eta1", "eta2"), box=((0.0, 1.0), (0.0, 1.0)), seeds=1, step=0.05)
+    serial = trace_curves(**kw)
+    dask = trace_curves(**kw, executor="dask", workers=2)
+    assert len(serial) == len(dask) >= 2
+    for a, b in zip(serial, dask):
+        assert (a.below, a.above, a.ends) == (b.below, b.above, b.ends)
+        assert a.points.tobytes() == b.points.tobytes()
