@@ -6,7 +6,8 @@ engine value, digits) to benchmarks/results/boundaries_thresholds.json.
 
 Usage::
 
-    PYTHONPATH=. python benchmarks/boundary_cost.py [--repeat 20] [--out benchmarks/results/boundaries.json]
+    PYTHONPATH=. python benchmarks/boundary_cost.py [--repeat 20] \
+        [--out benchmarks/results/boundaries.json]
 
 Per case: the 1-D search from a range (scan of 128 points + refinement), repeated;
 reported per boundary: collisions and median seconds of the refinement alone, with
@@ -80,16 +81,21 @@ def thresholds(out):
 
     bs = find_boundaries("eta2", 0, 1)
     row("both move iff eta2 < eta_max (n=2, eta1=0)", "(1+pi^2/8)^(-1/2) = 0.669...",
-        float(P.iia_eta_max(exact=True)), pick(bs, "backscatter_and_propagation", "backscatter_only"))
+        float(P.iia_eta_max(exact=True)),
+        pick(bs, "backscatter_and_propagation", "backscatter_only"))
     bs = find_boundaries("eta1", 0, 1, by="events")
-    row("backscattering ends (n=2, eta2=0)", "~0.22", float(P.iib_backscatter_threshold_eta_exact(dps=25)),
+    row("backscattering ends (n=2, eta2=0)", "~0.22",
+        float(P.iib_backscatter_threshold_eta_exact(dps=25)),
         pick(bs, "backscatter_and_propagation", "propagation_only", 0.1))
-    row("granule 1 stops sliding back (n=2, eta2=0; by events)", "0.439 (printed; 0.4388612 root of the approximate condition)",
-        float(P.iib_slip_critical_eta_exact(dps=25)), pick(bs, "propagation_only", "propagation_only", 0.3))
+    row("granule 1 stops sliding back (n=2, eta2=0; by events)",
+        "0.439 (printed; 0.4388612 root of the approximate condition)",
+        float(P.iib_slip_critical_eta_exact(dps=25)),
+        pick(bs, "propagation_only", "propagation_only", 0.3))
     bs = find_boundaries("gamma", 2, 4)
     s8 = math.sqrt(8)
     for b in bs:
-        row(f"never separate, equal gamma (n=2): engine edge {b.below}|{b.above}", "sqrt(8) = 2.8284...", s8, b)
+        row(f"never separate, equal gamma (n=2): engine edge {b.below}|{b.above}",
+            "sqrt(8) = 2.8284...", s8, b)
     t = time.perf_counter()
     v, err, n = separation_limit("gamma", bs[0].bracket[0], bs[-1].bracket[1])
     rows.append({"threshold": "never separate, equal gamma (n=2): 1/t_sep^2 -> 0 extrapolation",
