@@ -76,6 +76,7 @@ def _parser() -> argparse.ArgumentParser:
                       help="skip frame.png (the pyvista off-screen rendering)")
     plot.add_argument("--out", default=None,
                       help="folder for the PNGs (default RUN_DIR/plots)")
+    from .boundaries import add_boundaries_parser
     from .diagnostics import add_diagnose_parser
     from .figures import add_figures_parser
     from .sweep import add_sweep_parser
@@ -83,6 +84,7 @@ def _parser() -> argparse.ArgumentParser:
     add_sweep_parser(sub)
     add_diagnose_parser(sub)
     add_figures_parser(sub)
+    add_boundaries_parser(sub)
     return p
 
 
@@ -339,6 +341,9 @@ def main(argv=None) -> int:
     if args.command == "diagnose":
         from .diagnostics import run_diagnose_command
         return run_diagnose_command(args)
+    if args.command == "boundaries":
+        from .boundaries import run_boundaries_command
+        return run_boundaries_command(args)
     if args.command == "schema":
         print(json.dumps(scene_json_schema(), indent=2))
         return EXIT_OK
