@@ -1,4 +1,5 @@
-"""The ``granular-chain`` command: run | validate | schema | plot | sweep | diagnose | figures.
+"""The ``granular-chain`` command: run | validate | schema | plot | export | sweep | diagnose |
+figures | boundaries.
 
 Exit status: 0 success, 1 a run that ended without success (its outputs say
 why), 2 bad input (one line on stderr naming the file, the field and the
@@ -85,6 +86,8 @@ def _parser() -> argparse.ArgumentParser:
     add_diagnose_parser(sub)
     add_figures_parser(sub)
     add_boundaries_parser(sub)
+    from .writers.export import add_export_parser
+    add_export_parser(sub)
     return p
 
 
@@ -341,6 +344,9 @@ def main(argv=None) -> int:
     if args.command == "diagnose":
         from .diagnostics import run_diagnose_command
         return run_diagnose_command(args)
+    if args.command == "export":
+        from .writers.export import run_export_command
+        return run_export_command(args)
     if args.command == "boundaries":
         from .boundaries import run_boundaries_command
         return run_boundaries_command(args)

@@ -17,11 +17,24 @@ serves tools that read other formats, after the fact.
 
 from __future__ import annotations
 
+import contextlib
+import os
 from pathlib import Path
 
 import numpy as np
 
 __all__ = ["export_run", "add_export_parser", "run_export_command"]
+
+
+@contextlib.contextmanager
+def _working_folder(folder: Path):
+    """Run the block with ``folder`` as the working folder (restored after)."""
+    before = os.getcwd()
+    os.chdir(folder)
+    try:
+        yield
+    finally:
+        os.chdir(before)
 
 
 def _points(x: np.ndarray) -> np.ndarray:
@@ -58,7 +71,8 @@ def export_run(result, model, out: Path, fmt: str) -> list[Path]:
     if fmt == "xdmf":
         path = out / "run.xdmf"
         x0 = result.x[0]
-        with meshio.xdmf.TimeSeriesWriter(path) as writer:
+        # meshio puts the HDF5 companion in the working folder: write from inside ``out``
+        with _working_folder(out), meshio.xdmf.TimeSeriesWriter(path.name) as writer:
             writer.write_points_cells(_points(x0), cells)
             for q, t in enumerate(result.t):
                 writer.write_data(float(t), point_data={
