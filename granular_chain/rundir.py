@@ -168,9 +168,12 @@ class RunFolder:
         self.about = dict(about)
         self.tmp: Optional[Path] = None
         self.published = False
+        self._made: list[Path] = []
 
     def __enter__(self) -> "RunFolder":
         parent = self.out.parent
+        # the folders this run creates, deepest first: removed again if it fails
+        self._made = [p for p in [parent, *parent.parents] if not p.exists()]
         try:
             parent.mkdir(parents=True, exist_ok=True)
             _remove_stale_partials(parent, self.out.name)
@@ -182,8 +185,15 @@ class RunFolder:
         return self
 
     def __exit__(self, *exc) -> None:
-        if not self.published and self.tmp is not None and self.tmp.exists():
+        if self.published:
+            return
+        if self.tmp is not None and self.tmp.exists():
             shutil.rmtree(self.tmp, ignore_errors=True)
+        for folder in self._made:
+            try:
+                folder.rmdir()
+            except OSError:
+                break  # not empty (or not ours to remove): leave it and its parents
 
     def _write_marker(self, folder: Path, *, complete: bool, reason: str,
                       files: Iterable[str]) -> None:

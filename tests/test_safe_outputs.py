@@ -252,3 +252,16 @@ def test_plot_refuses_user_pngs_and_plots_join_the_run(work, capsys):
     assert main(["plot", "r", "--no-render"]) == 0  # its own plots may be redrawn
     assert run("--out", "r", "--overwrite") == 0  # and the run replaced, plots included
     assert not (work / "r" / "plots").exists()
+
+
+def test_failed_run_removes_the_folders_it_created(work, monkeypatch):
+    import granular_chain.writers.summary as summary
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(summary, "write_summary", broken)
+    before = snapshot(work)
+    with pytest.raises(OSError):
+        run("--out", "deep/er/run")
+    assert snapshot(work) == before and not (work / "deep").exists()
