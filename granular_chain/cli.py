@@ -244,13 +244,17 @@ def cmd_plot(args) -> int:
 
 
 def cmd_validate(args) -> int:
+    from .budget import check_budget
     from .model import build_model
     from .simulate import SimulationError, check_dt, default_dt
 
     try:
         scene = load_scene(args.scene, args.overrides)
+        check_budget(scene)
     except SceneError as exc:
         return _fail(str(exc))
+    except SimulationError as exc:
+        return _fail(f"{args.scene}: {exc}")
     model = build_model(scene)
     dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
     if scene.run.stepper == "verlet":

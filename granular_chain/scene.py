@@ -112,7 +112,7 @@ def _boolean(value):
 def _in_scale(value: float) -> float:
     if not SCALE_MIN <= value <= SCALE_MAX:
         raise PydanticCustomError(
-            "scale", "{value!r} is outside the representable range 1.5e-154 .. 6.7e+153 "
+            "scale", "{value} is outside the representable range 1.5e-154 .. 6.7e+153 "
             "(2^-511 .. 2^511): products of two such numbers (reduced masses, forces) "
             "would {what} double precision; choose other units",
             {"value": value, "what": "underflow" if value < SCALE_MIN else "overflow"})

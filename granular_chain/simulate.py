@@ -15,6 +15,7 @@ from typing import Optional, Union
 import numpy as np
 
 from ._compile import specialised
+from .budget import check_budget
 from .forces import net_forces
 from .laws.friction import drift_tables
 from .model import Model, build_model
@@ -114,6 +115,7 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     SimulationError
         The run cannot start (for example dt too large for the stiffest contact).
     """
+    check_budget(scene)
     model = build_model(scene)
     settings = scene.run
     if settings.stepper == "event":
