@@ -430,7 +430,7 @@ def test_base_scene_is_valid(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("id", ["billion-laughs", "duplicate-nested", "mass-5e-324",
-                                "count-1e9"])
+                                "count-1e9-float"])
 def test_console_no_traceback(id, tmp_path):
     """End to end in a subprocess: exit 2, one line, no traceback, well under a second
     of work for the alias bomb (bounded by the 30 s hang guard)."""
@@ -445,3 +445,57 @@ def test_console_no_traceback(id, tmp_path):
     assert len(p.stderr.strip().splitlines()) == 1 and "Traceback" not in p.stderr
     assert all(f in p.stderr for f in case.expect)
     assert snapshot(tmp_path) == before
+
+
+def test_steps_and_dt_keeps_a_dividing_dt_bit_for_bit():
+    from granular_chain.model import build_model
+    from granular_chain.scene import scene_from_dict
+    from granular_chain.simulate import default_dt
+
+    assert budget.steps_and_dt(1.0, 0.01) == (100, 0.01, False)
+    assert budget.steps_and_dt(20.0, 1e-4) == (200_000, 1e-4, False)
+    assert budget.steps_and_dt(0.3, 0.1) == (3, 0.1, False)  # 3 * 0.1 = 0.30000000000000004
+    n, dt, short = budget.steps_and_dt(10.0, 0.03)
+    assert (n, short) == (334, True) and dt == 10.0 / 334 and n * dt == pytest.approx(10.0, 1e-15)
+    assert budget.steps_and_dt(1.0, 2.0) == (1, 1.0, True)
+    for t_end, k in ((10.0, 1.0), (7.3, 3.7), (1e3, 1e4)):
+        model = build_model(scene_from_dict(scene(**{"run.t_end": t_end,
+                                                      "contacts.stiffness": k})))
+        dt = default_dt(model, t_end)
+        assert budget.steps_and_dt(t_end, dt)[1:] == (dt, False)
+
+
+def test_summary_json_has_null_and_a_reason_for_non_finite(tmp_path):
+    import json
+    import math
+
+    from granular_chain.writers.summary import write_summary
+
+    class Fake:
+        def summary(self):
+            return {"energy": {"kinetic": math.inf, "balance_error": math.nan},
+                    "v_final": [1.0, -math.inf]}
+
+    data = json.loads(write_summary(Fake(), tmp_path).read_text())
+    assert data["energy"] == {"kinetic": None, "balance_error": None}
+    assert data["v_final"] == [1.0, None]
+    assert data["non_finite"] == {"energy.kinetic": "inf: overflowed double precision",
+                                  "energy.balance_error": "nan: undefined (e.g. inf - inf)",
+                                  "v_final[1]": "-inf: overflowed double precision"}
+
+
+def test_memory_refusal_names_a_cadence_that_fits():
+    """The suggested output.every, applied, passes the same memory check."""
+    from granular_chain.scene import scene_from_dict
+    from granular_chain.simulate import SimulationError
+
+    data = scene(**{"run.t_end": 1e6, "run.max_steps": 2_000_000_000, "output.every": 1})
+    with pytest.raises(SimulationError, match=r"output.every: .* set output.every: (\d+)") as exc:
+        budget.check_budget(scene_from_dict(data), available=MEMORY)
+    every = int(exc.value.args[0].split("set output.every: ")[1].split()[0])
+    data["output"]["every"] = every
+    b = budget.check_budget(scene_from_dict(data), available=MEMORY)
+    assert b.total <= MEMORY and b.steps == 100_000_000
+    data["output"]["every"] = max(1, every // 2)
+    with pytest.raises(SimulationError):
+        budget.check_budget(scene_from_dict(data), available=MEMORY)
