@@ -120,7 +120,11 @@ def steps_and_dt(t_end: float, dt: float) -> tuple[int, float, bool]:
 
 
 def _gb(nbytes: float) -> str:
-    return f"{nbytes / 1e9:.3g} GB"
+    """Bytes in the largest unit that keeps the number >= 1 (B, kB, MB, GB, TB)."""
+    for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if nbytes >= size:
+            return f"{nbytes / size:.3g} {unit}"
+    return f"{nbytes:.0f} B"
 
 
 def _writer_bytes(scene) -> int:
