@@ -46,6 +46,8 @@ _VTK_BYTES_PER_GRANULE = 128
 _DEFAULT_FRAMES = 1000  # as simulate._DEFAULT_FRAMES / events._DEFAULT_FRAMES
 _DEFAULT_FRAME_VALUES = 10_000_000
 _FRAMES_AT_EVENTS_MAX_N = 64
+#: Below this estimate (bytes) memory is not looked up (/proc/meminfo costs ~100 us).
+SMALL_RUN = 256 * 2 ** 20
 #: t_end / (shortest contact time) above which t + T == t in double precision.
 TIME_RESOLUTION = 2.0 ** 52
 
@@ -74,6 +76,7 @@ class Budget:
     frame_bytes: int
     writers: int
     available: int
+    model: object = None  #: the Model built for the checks (simulate() runs it)
 
     @property
     def total(self) -> int:
@@ -171,9 +174,12 @@ def _refuse(field: str, problem: str):
     return SimulationError(f"{field}: {problem}")
 
 
-def _check_state_fits(scene, available: int) -> None:
+def _check_state_fits(scene, available: Optional[int]) -> None:
     n = scene.granules.count
     need = _state_bytes(scene) + _writer_bytes(scene) + 3 * _frame_bytes(n)
+    if need <= SMALL_RUN and available is None:
+        return
+    available = available_memory() if available is None else available
     if need > available:
         raise _refuse("granules.count", (
             f"{n} granules need about {_gb(need)} for the {scene.run.stepper} stepper's "
@@ -216,8 +222,10 @@ def _check_time_resolution(scene, model) -> None:
 
 
 def estimate_memory(scene, model, available: Optional[int] = None) -> Budget:
-    """The :class:`Budget` of a run (steps and dt checked for Verlet, see the module doc)."""
-    available = available_memory() if available is None else available
+    """The :class:`Budget` of a run (steps and dt checked for Verlet, see the module doc).
+
+    ``available`` defaults to :func:`available_memory`, looked up only for runs
+    estimated above SMALL_RUN (otherwise reported as -1: not looked up)."""
     n = scene.granules.count
     if scene.run.stepper == "event":
         steps, dt = None, None
@@ -225,9 +233,12 @@ def estimate_memory(scene, model, available: Optional[int] = None) -> Budget:
     else:
         steps, dt = _verlet_steps(scene, model)
         frames = -(-steps // _verlet_every(scene, steps, dt)) + 2
-    return Budget(steps=steps, dt=dt, frames=frames, state=_state_bytes(scene),
-                  frame_bytes=frames * _frame_bytes(n), writers=_writer_bytes(scene),
-                  available=available)
+    b = Budget(steps=steps, dt=dt, frames=frames, state=_state_bytes(scene),
+               frame_bytes=frames * _frame_bytes(n), writers=_writer_bytes(scene),
+               available=-1 if available is None else available, model=model)
+    if available is None and b.total > SMALL_RUN:
+        b.available = available_memory()
+    return b
 
 
 def _cadence_that_fits(scene, b: Budget) -> str:
@@ -256,13 +267,13 @@ def check_budget(scene, model=None, available: Optional[int] = None) -> Budget:
     Returns
     -------
     Budget
+        With the model it checked (``.model``), so the caller need not build it again.
 
     Raises
     ------
     SimulationError
         One line: ``dotted.field: what is wrong, with the numbers``.
     """
-    available = available_memory() if available is None else available
     _check_state_fits(scene, available)
     if model is None:
         from .model import build_model
@@ -274,7 +285,7 @@ def check_budget(scene, model=None, available: Optional[int] = None) -> Budget:
     if scene.run.stepper == "event":
         _check_time_resolution(scene, model)
     b = estimate_memory(scene, model, available)
-    if b.total > b.available:
+    if b.available >= 0 and b.total > b.available:
         raise _refuse("output.every" if b.steps is not None else "output.dt", (
             f"the run would keep {b.frames} frames of {scene.granules.count} granules: about "
             f"{_gb(b.total)} (state {_gb(b.state)}, frames {_gb(b.frame_bytes)}, writers "

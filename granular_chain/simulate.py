@@ -115,8 +115,7 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     SimulationError
         The run cannot start (for example dt too large for the stiffest contact).
     """
-    check_budget(scene)
-    model = build_model(scene)
+    model = check_budget(scene).model  # refuses, before allocating, what cannot run
     settings = scene.run
     if settings.stepper == "event":
         from .steppers.events import simulate_events  # the event stepper (issue 3)
