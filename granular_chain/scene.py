@@ -102,6 +102,14 @@ def _integer(value):
     return int(value)
 
 
+def _index_key(value):
+    """A granule index as a mapping key: a whole number, or its decimal digits (JSON,
+    which stores the scene in summary.json and trajectory.h5, has only string keys)."""
+    if isinstance(value, str) and value.isascii() and value.isdigit():
+        return int(value)
+    return _integer(value)
+
+
 def _boolean(value):
     if not isinstance(value, (bool, np.bool_)):
         raise PydanticCustomError("bool_type", "must be true or false, not {kind}",
@@ -193,7 +201,7 @@ class Granules(_Strict):
         0.0,
         description="Gap between neighbours i and i+1 (one value or N-1 values): "
         "0 = just touching, negative = initial overlap (precompression).")
-    velocity: Union[Finite, list[Finite], dict[Annotated[int, Int], Finite]] = Field(
+    velocity: Union[Finite, list[Finite], dict[Annotated[int, BeforeValidator(_index_key)], Finite]] = Field(
         0.0, description="Initial velocity v_i: one value, N values, or a mapping "
         "{index: value} with every other granule at rest (e.g. {0: 1.0} for a striker).")
     friction: Friction = Field(default_factory=Friction)
