@@ -430,7 +430,12 @@ def _is_tag(part) -> bool:
     """Union-member tags pydantic puts in error locations ('constrained-float', ...)."""
     if isinstance(part, int):
         return False
-    return part in _TYPE_TAGS or any(ch in part for ch in "[-(")
+    return part in _TYPE_TAGS or bool(_TAG.match(part))
+
+
+# 'constrained-float', 'function-before[_number(), float]', "literal['hertz']",
+# 'list[...]', '[key]'; a user's key such as 'x-wall' or '-1' is not one.
+_TAG = re.compile(r"^(constrained-\w+|function-(before|after|wrap|plain)\[.*\]|\w*\[.*\])$")
 
 
 def _dotted(loc: tuple) -> str:

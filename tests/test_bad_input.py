@@ -499,3 +499,23 @@ def test_memory_refusal_names_a_cadence_that_fits():
     data["output"]["every"] = max(1, every // 2)
     with pytest.raises(SimulationError):
         budget.check_budget(scene_from_dict(data), available=MEMORY)
+
+
+def test_yaml_that_is_fine_still_loads(tmp_path):
+    """Anchors within the limit, merge keys, 1e-3 numbers and int-for-float stay valid."""
+    from granular_chain.scene import load_scene
+
+    path = tmp_path / "ok.yaml"
+    path.write_text("wall: &w {gap: 1e-1, stiffness: 2, exponent: 2.5}\n"
+                    "granules: {count: 3, mass: 1, velocity: {0: 1e0}, radius: [0.5, 0.5, 0.5]}\n"
+                    "contacts: {exponent: 2.5}\n"
+                    "walls: {left: *w, right: {<<: *w, gap: 2e-1}}\n"
+                    "run: {dt: 1e-3, t_end: 1}\n"
+                    "output: {every: 10}\n".replace("wall: &w", "name: ok\nx-wall: &w"))
+    with pytest.raises(Exception, match="x-wall: unknown field"):
+        load_scene(path)  # the anchor holder itself is not a scene field
+    path.write_text(path.read_text().replace("x-wall: &w {gap: 1e-1, stiffness: 2, exponent: 2.5}\n", "")
+                    .replace("left: *w", "left: &w {gap: 1e-1, stiffness: 2, exponent: 2.5}"))
+    s = load_scene(path)
+    assert s.run.dt == 1e-3 and s.granules.mass == 1.0 and s.granules.velocity == {0: 1.0}
+    assert (s.walls.right.gap, s.walls.right.stiffness, s.walls.left.gap) == (0.2, 2.0, 0.1)
