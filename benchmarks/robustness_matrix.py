@@ -1,10 +1,19 @@
-"""The hard-case matrix of issue 7: run each case, print a markdown table row.
+"""The hard-case matrix and the bad-input matrix, as markdown tables.
 
-Each row: case, stepper, expected outcome, what happened (status, message
-excerpt, numbers), wall time. The same cases are asserted in
+Hard cases: each row is case, stepper, expected outcome, what happened (status,
+message excerpt, numbers), wall time. The same cases are asserted in
 tests/test_robustness.py (Verlet) and tests/test_events.py (event stepper).
 
-    python benchmarks/robustness_matrix.py > docs/robustness_table.md
+    python benchmarks/robustness_matrix.py verlet event
+
+Bad input: every case of tests/test_bad_input.py (CASES), run in-process through
+``granular_chain.cli.main`` in a fresh temporary folder with 4 GiB of memory to
+plan with; each row is case, command, expected (exit 2, one line naming the
+field), what happened (exit status, number of stderr lines, the line with the
+folder replaced by DIR, whether the folder changed) and the time. A summary per
+category comes first.
+
+    python benchmarks/robustness_matrix.py bad-input > benchmarks/results/bad_input_matrix.md
 """
 
 import math
@@ -113,6 +122,83 @@ def main(steppers=("verlet", "event")):
             print(f"| {name} | {stepper} | {expected} | {what.replace('|', '/')} | {dt:.3g} |", flush=True)
 
 
+def bad_input_rows():
+    """Run every bad-input case; yield (case, exit status, stderr lines, folder changed, seconds)."""
+    import contextlib
+    import io
+    import os
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    import test_bad_input as T
+
+    from granular_chain import budget
+    from granular_chain.cli import main as cli
+
+    budget.available_memory = lambda: T.MEMORY
+    home = os.getcwd()
+    with tempfile.TemporaryDirectory() as top:
+        run_dir = Path(top) / "finished" / "run"
+        run_dir.parent.mkdir()
+        (run_dir.parent / "s.yaml").write_text(T.dump(T.scene(**{"output.trajectory": True,
+                                                                   "walls": {}})))
+        with contextlib.redirect_stderr(io.StringIO()):
+            cli(["run", str(run_dir.parent / "s.yaml"), "--out", str(run_dir), "--quiet"])
+        for i, case in enumerate(T.CASES):
+            folder = Path(top) / f"case{i}"
+            folder.mkdir()
+            T._write(folder, case.files)
+            before = T.snapshot(folder)
+            argv = [a.replace("{dir}", str(folder)).replace("{run}", str(run_dir))
+                    for a in case.argv]
+            err = io.StringIO()
+            os.chdir(folder)
+            t0 = time.perf_counter()
+            try:
+                with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                    try:
+                        code = cli(argv)
+                    except SystemExit as exc:
+                        code = exc.code
+            finally:
+                os.chdir(home)
+            seconds = time.perf_counter() - t0
+            lines = err.getvalue().strip().replace(str(folder), "DIR").replace(
+                str(run_dir), "RUN").splitlines()
+            changed = sorted(set(T.snapshot(folder)) ^ set(before)) or (
+                ["(contents)"] if T.snapshot(folder) != before else [])
+            yield case, code, lines, changed, seconds
+
+
+def bad_input_main():
+    rows = list(bad_input_rows())
+    cats = {}
+    for case, code, lines, changed, _ in rows:
+        ok = code == 2 and len(lines) == 1 and lines[0].startswith("granular-chain: ") and all(
+            f in lines[0] for f in case.expect)
+        c = cats.setdefault(case.category, [0, 0, 0])
+        c[0] += 1
+        c[1] += ok
+        c[2] += bool(changed)
+    print(f"{len(rows)} cases; exit 2 with one line naming the field: "
+          f"{sum(c[1] for c in cats.values())}; folder changed: {sum(c[2] for c in cats.values())}\n")
+    print("| category | cases | exit 2, one line, field named | folder changed |")
+    print("|---|---|---|---|")
+    for name, (n, ok, ch) in cats.items():
+        print(f"| {name} | {n} | {ok} | {ch} |")
+    print("\n| case | command | expected | what happened | changed | time (s) |")
+    print("|---|---|---|---|---|---|")
+    for case, code, lines, changed, seconds in rows:
+        what = f"exit {code}, {len(lines)} line(s): " + " / ".join(lines)[-300:]
+        print(f"| {case.id} | {case.argv[0]} | exit 2 naming {', '.join(case.expect)} | "
+              f"{what.replace('|', '/')} | {' '.join(changed) or '-'} | {seconds:.3f} |")
+
+
 if __name__ == "__main__":
     import sys
-    main(tuple(sys.argv[1:]) or ("verlet", "event"))
+    if sys.argv[1:] == ["bad-input"]:
+        bad_input_main()
+    else:
+        main(tuple(sys.argv[1:]) or ("verlet", "event"))

@@ -305,20 +305,16 @@ def cmd_plot(args) -> int:
 
 
 def cmd_validate(args) -> int:
-    from .model import build_model
-    from .simulate import SimulationError, check_dt, default_dt
+    from .simulate import SimulationError, preflight, step_plan
 
     try:
         scene = load_scene(args.scene, args.overrides)
+        model = preflight(scene)
     except SceneError as exc:
         return _fail(str(exc))
-    model = build_model(scene)
-    dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
-    if scene.run.stepper == "verlet":
-        try:
-            check_dt(model, dt)
-        except SimulationError as exc:
-            return _fail(f"{args.scene}: {exc}")
+    except SimulationError as exc:
+        return _fail(f"{args.scene}: {exc}")
+    dt = step_plan(model, scene).dt if scene.run.stepper == "verlet" else None
     print(json.dumps({
         "scene": args.scene, "valid": True, "granules": model.count,
         "features": model.features.describe(), "stepper": scene.run.stepper,

@@ -24,8 +24,12 @@ from .forces import total_potential
 from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
 from .scene import Scene
 
-__all__ = ["Features", "Model", "build_model", "friction_features", "LAW_LINEAR", "LAW_HERTZ",
-           "LAW_POWER"]
+__all__ = ["Features", "Model", "build_model", "friction_features", "scale_problem",
+           "LAW_LINEAR", "LAW_HERTZ", "LAW_POWER"]
+
+_TINY = np.finfo(np.float64).tiny  # smallest normal double, 2.2e-308
+#: Positions must resolve this fraction of the smallest radius.
+_POSITION_RESOLUTION = 1e-3
 
 @dataclass(frozen=True)
 class Features:
@@ -243,3 +247,62 @@ def build_model(scene: Scene) -> Model:
         eta=eta, eta_static=eta_s, gamma=gamma, features=features,
         units=scene.units, name=scene.name,
     )
+
+
+def _contacts_with_walls(model: Model):
+    """(reduced mass, k, n, initial overlap, field name) of every contact and wall."""
+    m = model.mass
+    rows = [(m[:-1] * m[1:] / (m[:-1] + m[1:]), model.k, model.n, model.d0, "contacts.stiffness")]
+    w = model.walls
+    if model.features.left_wall:
+        rows.append((m[:1], w[1:2], w[2:3], w[0:1], "walls.left.stiffness"))
+    if model.features.right_wall:
+        rows.append((m[-1:], w[4:5], w[5:6], w[3:4], "walls.right.stiffness"))
+    return rows
+
+
+def scale_problem(model: Model):
+    """The first quantity of the scene that double precision cannot represent, or None.
+
+    The scene's own ranges (masses, radii, stiffnesses within 2^-511 .. 2^511) keep
+    each number representable; this checks what the engine forms from them: the
+    ratio mu/k that sets every contact time, the initial kinetic and elastic
+    energies, and the positions, which must resolve a thousandth of the smallest
+    radius (a gap of 1e300 puts a granule where the spacing of doubles is 1e284).
+
+    Returns
+    -------
+    (str, str) or None
+        The dotted field to change and what is wrong.
+    """
+    with np.errstate(all="ignore"):
+        for mu, k, n, d0, field in _contacts_with_walls(model):
+            ratio = mu / k
+            bad = np.flatnonzero(~(ratio >= _TINY) | ~np.isfinite(ratio))
+            if bad.size:
+                i = int(bad[0])
+                return field, (f"mass / stiffness = {mu[i]:.3g} / {k[i]:.3g} of contact {i} "
+                               f"{'underflows' if ratio[i] < _TINY else 'overflows'} double "
+                               f"precision: its contact time cannot be computed")
+            pe = k * np.where(d0 > 0, d0, 0.0) ** n / n
+            if not np.all(np.isfinite(pe)):
+                i = int(np.flatnonzero(~np.isfinite(pe))[0])
+                return "granules.gap", (f"the initial elastic energy of contact {i} (overlap "
+                                        f"{d0[i]:.3g}) overflows double precision")
+        ke = 0.5 * model.mass * model.v0 * model.v0
+        if not np.all(np.isfinite(ke)):
+            i = int(np.flatnonzero(~np.isfinite(ke))[0])
+            return "granules.velocity", (f"the kinetic energy m v^2/2 of granule {i} (v = "
+                                         f"{model.v0[i]:.3g}, m = {model.mass[i]:.3g}) "
+                                         f"overflows double precision")
+        far = np.abs(model.x0)
+        spacing = np.spacing(far)
+        bad = np.flatnonzero(~(spacing <= _POSITION_RESOLUTION * model.radius))
+        if bad.size:
+            i = int(bad[0])
+            field = "granules.gap" if np.max(np.abs(model.d0), initial=0.0) > np.max(
+                model.radius) else "granules.radius"
+            return field, (f"puts granule {i} at x = {model.x0[i]:.3g}, where double precision "
+                           f"cannot resolve a thousandth of its radius {model.radius[i]:.3g} "
+                           f"(spacing of doubles there: {spacing[i]:.3g})")
+    return None

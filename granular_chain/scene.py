@@ -11,18 +11,25 @@ from __future__ import annotations
 
 import difflib
 import math
+import numbers
+import re
+import unicodedata
 from pathlib import Path
 from typing import Annotated, Any, Literal, Optional, Union
 
+import numpy as np
 import yaml
 from pydantic import (
+    AfterValidator,
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     ValidationError,
     field_validator,
     model_validator,
 )
+from pydantic_core import PydanticCustomError
 
 from .distributions import Distribution, check_draw, draw, is_recipe
 
@@ -33,7 +40,27 @@ __all__ = [
     "scene_from_dict",
     "apply_overrides",
     "scene_json_schema",
+    "read_scene_data",
+    "parse_yaml_value",
+    "MAX_SCENE_BYTES",
+    "SCALE_MIN",
+    "SCALE_MAX",
 ]
+
+#: Largest scene file read (bytes): a scene is a few hundred bytes; per-item
+#: lists of ~10^5 values still fit.
+MAX_SCENE_BYTES = 1 << 20
+#: Most YAML nodes that aliases may add by expansion (a "billion laughs" file
+#: adds 10^9 from a few hundred bytes).
+MAX_ALIAS_NODES = 100_000
+#: Deepest nesting of YAML collections (a scene needs 4).
+MAX_YAML_DEPTH = 64
+#: Range of masses, radii and stiffnesses: 2^-511 .. 2^511, so that the product
+#: of two (a reduced mass m_i m_j / (m_i + m_j), a force k delta) neither
+#: underflows to a subnormal nor overflows double precision.
+SCALE_MIN = 2.0 ** -511
+SCALE_MAX = 2.0 ** 511
+
 
 
 class SceneError(ValueError):
@@ -45,16 +72,105 @@ class SceneError(ValueError):
         super().__init__(f"{where}: {problem}")
 
 
-Finite = Annotated[float, Field(allow_inf_nan=False)]
-Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+def _kind(value) -> str:
+    """How a value of the wrong type is named in messages."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    if isinstance(value, float):
+        return f"the decimal number {value!r}"
+    return f"a {type(value).__name__}"
+
+
+def _number(value):
+    """Numbers only: YAML ints and floats, not booleans or (quoted) strings."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise PydanticCustomError("number_type", "must be a number, not {kind}",
+                                  {"kind": _kind(value)})
+    if isinstance(value, numbers.Integral) and abs(int(value)) > 2 ** 1023:
+        raise PydanticCustomError("finite_number", "is too large for double precision")
+    return value
+
+
+def _integer(value):
+    """Whole numbers only: not 3.0 or 1e9 (floats), booleans or strings."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise PydanticCustomError(
+            "integer_type", "must be a whole number written without a decimal point or "
+            "exponent (e.g. 1000000), not {kind}", {"kind": _kind(value)})
+    return int(value)
+
+
+def _index_key(value):
+    """A granule index as a mapping key: a whole number, or its decimal digits (JSON,
+    which stores the scene in summary.json and trajectory.h5, has only string keys)."""
+    if isinstance(value, str) and value.isascii() and value.isdigit():
+        return int(value)
+    return _integer(value)
+
+
+def _boolean(value):
+    if not isinstance(value, (bool, np.bool_)):
+        raise PydanticCustomError("bool_type", "must be true or false, not {kind}",
+                                  {"kind": _kind(value)})
+    return bool(value)
+
+
+def _in_scale(value: float) -> float:
+    if not SCALE_MIN <= value <= SCALE_MAX:
+        raise PydanticCustomError(
+            "scale", "{value} is outside the representable range 1.5e-154 .. 6.7e+153 "
+            "(2^-511 .. 2^511): products of two such numbers (reduced masses, forces) "
+            "would {what} double precision; choose other units",
+            {"value": value, "what": "underflow" if value < SCALE_MIN else "overflow"})
+    return value
+
+
+def _name(value):
+    """The scene name is a folder name under outputs/, never a path."""
+    if not isinstance(value, str):
+        raise PydanticCustomError("string_type", "must be a string, not {kind}",
+                                  {"kind": _kind(value)})
+    problem = ""
+    bad = [ch for ch in value if unicodedata.category(ch) in ("Cc", "Cf", "Zl", "Zp")]
+    if not value.strip():
+        problem = "must not be empty (it names the folder outputs/<name>)"
+    elif bad:
+        problem = (f"contains the control character U+{ord(bad[0]):04X}; use letters, "
+                   f"digits, '-', '_' or '.'")
+    elif "/" in value or "\\" in value:
+        problem = ("must be a plain folder name, not a path (it contains a slash); "
+                   "choose another output folder with --out")
+    elif value.startswith("."):
+        problem = "must not start with '.' ('.', '..' and hidden folders are not names)"
+    elif len(value.encode("utf-8")) > 255:
+        problem = "is longer than 255 bytes, the longest folder name file systems allow"
+    if problem:
+        raise PydanticCustomError("name", problem)
+    return value
+
+
+Num = BeforeValidator(_number)
+Finite = Annotated[float, Num, Field(allow_inf_nan=False)]
+Positive = Annotated[float, Num, Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Num, Field(ge=0, allow_inf_nan=False)]
+#: A mass, radius or stiffness: positive and within SCALE_MIN .. SCALE_MAX.
+Scale = Annotated[float, Num, Field(gt=0, allow_inf_nan=False), AfterValidator(_in_scale)]
+Int = BeforeValidator(_integer)
+Bool = Annotated[bool, BeforeValidator(_boolean)]
 # A per-granule or per-contact quantity: one number for all, or one per item.
 PerItem = Union[Finite, list[Finite]]
 PerItemPositive = Union[Positive, list[Positive]]
+PerItemScale = Union[Scale, list[Scale]]
 PerItemNonNegative = Union[NonNegative, list[NonNegative]]
+Exponent = Annotated[float, Num, Field(gt=1, allow_inf_nan=False)]
+Poisson = Annotated[float, Num, Field(gt=-1, lt=0.5)]
 # Per-granule fields also take a seeded distribution (see distributions.py).
 PerGranule = Union[Finite, list[Finite], Distribution]
-PerGranulePositive = Union[Positive, list[Positive], Distribution]
+PerGranuleScale = Union[Scale, list[Scale], Distribution]
 PerGranuleNonNegative = Union[NonNegative, list[NonNegative], Distribution]
 
 
@@ -76,22 +192,24 @@ class Friction(_Strict):
 class Material(_Strict):
     """Elastic constants for Hertz stiffness, k = (4/3) E* sqrt(R*) (paper eq. (1)-(3))."""
 
-    young: PerItemPositive = Field(..., description="Young's modulus E of each granule.")
-    poisson: Union[Annotated[float, Field(gt=-1, lt=0.5)], list[Annotated[float, Field(gt=-1, lt=0.5)]]] = Field(
+    young: PerItemScale = Field(..., description="Young's modulus E of each granule.")
+    poisson: Union[Poisson, list[Poisson]] = Field(
         ..., description="Poisson ratio of each granule, in (-1, 0.5).")
 
 
 class Granules(_Strict):
     """The N granules, indexed 0..N-1 from left to right."""
 
-    count: int = Field(..., ge=1, description="Number of granules N.")
-    mass: PerGranulePositive = Field(1.0, description="Mass m_i (one value or N values).")
-    radius: PerGranulePositive = Field(0.5, description="Radius r_i (one value or N values).")
+    count: Annotated[int, Int] = Field(..., ge=1, description="Number of granules N.")
+    mass: PerGranuleScale = Field(1.0, description="Mass m_i (one value or N values).")
+    radius: PerGranuleScale = Field(0.5, description="Radius r_i (one value or N values).")
     gap: PerGranule = Field(
         0.0,
         description="Gap between neighbours i and i+1 (one value or N-1 values): "
         "0 = just touching, negative = initial overlap (precompression).")
-    velocity: Union[Finite, list[Finite], dict[int, Finite], Distribution] = Field(
+    velocity: Union[Finite, list[Finite],
+                    dict[Annotated[int, BeforeValidator(_index_key)], Finite],
+                    Distribution] = Field(
         0.0, description="Initial velocity v_i: one value, N values, or a mapping "
         "{index: value} with every other granule at rest (e.g. {0: 1.0} for a striker).")
     friction: Friction = Field(default_factory=Friction)
@@ -119,9 +237,9 @@ class Granules(_Strict):
 class Contacts(_Strict):
     """One-sided power-law contacts: force k * delta^(n-1) while delta > 0."""
 
-    exponent: Union[Annotated[float, Field(gt=1, allow_inf_nan=False)], list[Annotated[float, Field(gt=1, allow_inf_nan=False)]]] = Field(
+    exponent: Union[Exponent, list[Exponent]] = Field(
         2.0, description="Exponent n of the potential (2 linear, 2.5 Hertz); force ~ delta^(n-1).")
-    stiffness: Union[Literal["hertz"], PerItemPositive] = Field(
+    stiffness: Union[Literal["hertz"], PerItemScale] = Field(
         1.0,
         description="Force coefficient k (force = k delta^(n-1)), one value or N-1 values, "
         "or 'hertz' to compute k = (4/3) E* sqrt(R*) from granules.material (then n = 5/2).")
@@ -131,8 +249,8 @@ class Wall(_Strict):
     """A fixed wall beyond an end granule, with the same one-sided contact law."""
 
     gap: Finite = Field(0.0, description="Gap between the wall and the end granule.")
-    stiffness: Positive = Field(1.0, description="Force coefficient k of the wall contact.")
-    exponent: Annotated[float, Field(gt=1, allow_inf_nan=False)] = Field(
+    stiffness: Scale = Field(1.0, description="Force coefficient k of the wall contact.")
+    exponent: Exponent = Field(
         2.0, description="Exponent n of the wall contact.")
 
 
@@ -144,18 +262,18 @@ class Walls(_Strict):
 class Output(_Strict):
     """What a run writes and how often (the cadence never changes the physics)."""
 
-    every: Optional[int] = Field(
+    every: Optional[Annotated[int, Int]] = Field(
         None, ge=1, description="Record a frame every this many steps (Verlet).")
     dt: Optional[Positive] = Field(
         None, description="Record a frame every dt of simulated time (rounded to whole steps).")
-    trajectory: bool = Field(True, description="Write trajectory.h5 (t, x, v, energy ledger).")
-    vtk: bool = Field(
+    trajectory: Bool = Field(True, description="Write trajectory.h5 (t, x, v, energy ledger).")
+    vtk: Bool = Field(
         False, description="Write a VTK time series for ParaView/pyvista: run.pvd indexing "
         "vtk/frame_NNNNNN.vtp (granules as points, contacts as line cells).")
-    csv: bool = Field(
+    csv: Bool = Field(
         False, description="Write energy.csv (energy ledger per frame) and, when the stepper "
         "logged events, events.csv.")
-    plots: bool = Field(
+    plots: Bool = Field(
         False, description="Write PNG plots into plots/ (space-time velocity diagram, energy "
         "ledger, granule velocities, a rendered frame).")
     thermo: Optional[int] = Field(
@@ -182,21 +300,23 @@ class Run(_Strict):
     def stop_conditions(self) -> set:
         s = self.stop
         return set(s) if isinstance(s, list) else ({s} - {"t_end"})
-    stop_contact: int = Field(0, ge=0, description="Contact index for stop: separation.")
-    max_steps: int = Field(2_000_000_000, ge=1, description="Refuse to take more steps.")
-    check_dt: bool = Field(
+    stop_contact: Annotated[int, Int] = Field(0, ge=0, description="Contact index for stop: separation.")
+    max_steps: Annotated[int, Int] = Field(2_000_000_000, ge=1, description="Refuse to take more steps.")
+    check_dt: Bool = Field(
         True, description="Refuse a Verlet dt above the stability limit of the stiffest "
         "contact (turn off only to study instability: the run then stops at the first "
         "non-finite state with status nonfinite).")
     rtol: Positive = Field(1e-12, description="Relative tolerance (event stepper, n != 2).")
     atol: Positive = Field(1e-14, description="Absolute tolerance (event stepper, n != 2).")
-    max_events: int = Field(1_000_000, ge=1, description="Event stepper: most events.")
+    max_events: Annotated[int, Int] = Field(1_000_000, ge=1, description="Event stepper: most events.")
 
 
 class Scene(_Strict):
     """A validated scene: everything one run needs, in scaled or SI units."""
 
-    name: str = Field("scene", description="Used for the default output folder.")
+    name: Annotated[str, BeforeValidator(_name)] = Field(
+        "scene", description="Used for the default output folder outputs/<name>: a plain "
+        "folder name (no slashes, control characters or leading '.').")
     units: Literal["scaled", "physical"] = Field(
         "scaled",
         description="'scaled' (paper Appendix A: m = 1, force coefficient 1, v0 = 1) or "
@@ -250,33 +370,53 @@ class Scene(_Strict):
                                     "must be 2.5 when stiffness is 'hertz' (Hertz law for spheres)")
         fr = self.granules.friction
         if fr.static is not None:
-            kin = _expand(fr.kinetic, n)
-            sta = _expand(fr.static, n)
-            for i, (a, b) in enumerate(zip(kin, sta)):
-                if b < a:
-                    raise _FieldProblem(
-                        "granules.friction.static",
-                        f"static threshold {b} of granule {i} is below its kinetic friction {a}")
-        radii = _expand(self.granules.radius, n)
-        gaps = _expand(self.granules.gap, max(n - 1, 0))
-        for i, g in enumerate(gaps):
-            if -g >= min(radii[i], radii[i + 1]):
+            kin, sta = np.broadcast_arrays(_array(fr.kinetic), _array(fr.static))
+            below = np.flatnonzero(sta < kin)
+            if below.size:
+                i = int(below[0])
                 raise _FieldProblem(
-                    "granules.gap",
-                    f"initial overlap {-g} of contact {i} is not smaller than the smaller radius "
-                    f"{min(radii[i], radii[i + 1])}: granules would pass through each other")
-        for side in ("left", "right"):
-            wall = getattr(self.walls, side)
-            end = radii[0] if side == "left" else radii[-1]
-            if wall is not None and -wall.gap >= end:
-                raise _FieldProblem(f"walls.{side}.gap",
-                                    f"initial overlap {-wall.gap} is not smaller than the radius {end}")
+                    "granules.friction.static",
+                    f"static threshold {sta.flat[i]} of granule {i} is below its kinetic "
+                    f"friction {kin.flat[i]}")
+        self._check_overlaps(n)
         if "separation" in self.run.stop_conditions and self.run.stop_contact > n - 2:
             raise _FieldProblem("run.stop_contact",
                                 f"is {self.run.stop_contact} but contacts are numbered 0..{n - 2}")
         if self.output.every is not None and self.output.dt is not None:
             raise _FieldProblem("output", "give either 'every' (steps) or 'dt' (time), not both")
         return self
+
+
+    def _check_overlaps(self, n: int) -> None:
+        """Initial overlaps must be smaller than the radii. Scalars stay scalars (0-d):
+        a scene of 10^9 granules is refused by its memory estimate, not by this loop."""
+        radius = _array(self.granules.radius)
+        if n > 1:
+            r_min = np.minimum(radius[:-1], radius[1:]) if radius.ndim else radius
+            gap = _array(self.granules.gap)
+            over = np.atleast_1d(-gap >= r_min)
+            bad = np.flatnonzero(over)
+            if bad.size:
+                i = int(bad[0])
+                g = float(np.broadcast_to(gap, over.shape)[i])
+                rm = float(np.broadcast_to(r_min, over.shape)[i])
+                raise _FieldProblem(
+                    "granules.gap",
+                    f"initial overlap {-g} of contact {i} is not smaller than the smaller "
+                    f"radius {rm}: granules would pass through each other")
+        ends = {"left": radius[0] if radius.ndim else radius,
+                "right": radius[-1] if radius.ndim else radius}
+        for side, end in ends.items():
+            wall = getattr(self.walls, side)
+            if wall is not None and -wall.gap >= end:
+                raise _FieldProblem(
+                    f"walls.{side}.gap",
+                    f"initial overlap {-wall.gap} is not smaller than the radius {float(end)}")
+
+
+def _array(value) -> np.ndarray:
+    """A per-item field as an array: 0-d for one value, 1-d for a list."""
+    return np.asarray(value, dtype=np.float64)
 
 
 class _FieldProblem(ValueError):
@@ -327,7 +467,12 @@ def _is_tag(part) -> bool:
     """Union-member tags pydantic puts in error locations ('constrained-float', ...)."""
     if isinstance(part, int):
         return False
-    return part in _TYPE_TAGS or any(ch in part for ch in "[-(")
+    return part in _TYPE_TAGS or bool(_TAG.match(part))
+
+
+# 'constrained-float', 'function-before[_number(), float]', "literal['hertz']",
+# 'list[...]', '[key]'; a user's key such as 'x-wall' or '-1' is not one.
+_TAG = re.compile(r"^(constrained-\w+|function-(before|after|wrap|plain)\[.*\]|\w*\[.*\])$")
 
 
 def _dotted(loc: tuple) -> str:
@@ -356,15 +501,29 @@ def _recipe_errors(errors: list) -> list:
     return [e for e in errors if keep(e)]
 
 
+# Errors of a union member the input was not meant for ("Input should be a valid
+# list" for a number): the member that matches what was written speaks first.
+_OTHER_MEMBER = {"list_type", "dict_type", "model_type", "model_attributes_type"}
+
+
+def _rank(err) -> int:
+    if err["type"] in _OTHER_MEMBER:
+        return 0
+    if err["type"] == "literal_error" and not isinstance(err.get("input"), str):
+        return 1  # a number given for "stiffness: hertz | number": the number's error
+    return 2
+
+
 def _explain(exc: ValidationError, source: str) -> SceneError:
     """The most specific validation error as one SceneError line (file, field, problem)."""
     errors = exc.errors(include_url=False)
     # A per-item field is a union (number or list): each member reports its own
     # error. The one with the deepest real path (an index into the list) is the
-    # one that speaks of what the user wrote.
+    # one that speaks of what the user wrote; at equal depth, the member of the
+    # input's own type.
     errors = _recipe_errors(errors)
     first = max(errors, key=lambda e: (len(_dotted(e["loc"]).replace("[", ".[").split(".")),
-                                       -errors.index(e)))
+                                       _rank(e), -errors.index(e)))
     loc = first["loc"]
     path = _dotted(loc)
     err_type = first["type"]
@@ -386,10 +545,22 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
         return SceneError(source, path, first["msg"].removeprefix("Value error, "))
     if err_type == "missing":
         return SceneError(source, path, "is required but missing")
-    msg = first["msg"]
-    if err_type == "finite_number":
-        msg = "must be a finite number (NaN and Inf are not allowed)"
-    return SceneError(source, path, f"{msg} (got {first.get('input')!r})")
+    return SceneError(source, path, _problem(first))
+
+
+def _problem(err) -> str:
+    """What is wrong with one value, in words (pydantic's wording kept in brackets)."""
+    msg, kind, value = err["msg"], err["type"], err.get("input")
+    bound = next(iter(err.get("ctx", {}).values()), None)
+    if kind in ("number_type", "integer_type", "bool_type", "string_type", "name", "scale"):
+        return msg
+    if kind == "finite_number":
+        return f"must be a finite number (NaN and Inf are not allowed; got {value!r})"
+    if kind == "greater_than" and bound == 0:
+        return f"{msg}: it must be positive (got {value!r})"
+    if kind == "greater_than_equal" and bound == 0:
+        return f"{msg}: it must not be negative (got {value!r})"
+    return f"{msg} (got {value!r})"
 
 
 def scene_from_dict(data: Any, source: str = "<scene>") -> Scene:
@@ -402,23 +573,163 @@ def scene_from_dict(data: Any, source: str = "<scene>") -> Scene:
         raise _explain(exc, source) from None
 
 
-def _read_yaml(path: Path) -> Any:
+class _YamlRefused(yaml.YAMLError):
+    """A YAML document refused by :class:`_SceneLoader` (one line, with the line number)."""
+
+
+class _SceneLoader(yaml.SafeLoader):
+    """SafeLoader for scene files: bounded alias expansion and nesting, duplicate
+    keys refused at every level, and YAML 1.2 floats (``1e-3`` is a number, which
+    YAML 1.1 reads as a string)."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._alias_nodes = 0
+        self._depth = 0
+        self._open: set = set()
+        self._sizes: dict = {}
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        line = event.start_mark.line + 1
+        if isinstance(event, yaml.AliasEvent):
+            node = self.anchors.get(event.anchor)
+            if node is not None:
+                if event.anchor in self._open:
+                    raise _YamlRefused(f"line {line}: alias *{event.anchor} refers to the "
+                                       f"collection that contains it (a recursive alias)")
+                self._alias_nodes += self._size(node)
+                if self._alias_nodes > MAX_ALIAS_NODES:
+                    raise _YamlRefused(
+                        f"line {line}: aliases expand to more than {MAX_ALIAS_NODES} values "
+                        f"(alias *{event.anchor}); refused as a possible 'billion laughs' file")
+            return super().compose_node(parent, index)
+        self._depth += 1
+        if self._depth > MAX_YAML_DEPTH:
+            raise _YamlRefused(f"line {line}: nested deeper than {MAX_YAML_DEPTH} levels")
+        anchor = getattr(event, "anchor", None)
+        if anchor:
+            self._open.add(anchor)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+            self._open.discard(anchor)
+
+    def _size(self, node) -> int:
+        """Nodes in ``node`` once every alias inside it is expanded (memoised)."""
+        key = id(node)
+        if key not in self._sizes:
+            if isinstance(node, yaml.MappingNode):
+                size = 1 + sum(self._size(k) + self._size(v) for k, v in node.value)
+            elif isinstance(node, yaml.SequenceNode):
+                size = 1 + sum(self._size(v) for v in node.value)
+            else:
+                size = 1
+            self._sizes[key] = size
+        return self._sizes[key]
+
+    def get_single_node(self):
+        node = super().get_single_node()
+        if node is not None:
+            self._check_duplicates(node, "", set())
+        return node
+
+    def _check_duplicates(self, node, path: str, seen: set) -> None:
+        if id(node) in seen:
+            return
+        seen.add(id(node))
+        if isinstance(node, yaml.SequenceNode):
+            for i, item in enumerate(node.value):
+                self._check_duplicates(item, f"{path}[{i}]", seen)
+            return
+        if not isinstance(node, yaml.MappingNode):
+            return
+        first: dict = {}
+        for key_node, value_node in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue
+            key = self._key(key_node)
+            name = f"{path}.{key}" if path else str(key)
+            if key in first:
+                raise _YamlRefused(
+                    f"{name}: duplicate key at line {key_node.start_mark.line + 1} (first "
+                    f"at line {first[key] + 1}); a later value would silently replace it")
+            first[key] = key_node.start_mark.line
+            self._check_duplicates(value_node, name, seen)
+
+    def _key(self, node):
+        if isinstance(node, yaml.ScalarNode):
+            try:
+                key = self.yaml_constructors[node.tag](self, node)
+                hash(key)
+                return key
+            except Exception:  # an unusual key: compare it as written
+                return (node.tag, node.value)
+        return ("node", id(node))
+
+
+_SceneLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."))
+
+
+def _yaml_problem(exc: yaml.YAMLError) -> str:
+    if isinstance(exc, _YamlRefused):
+        return str(exc)
+    mark = getattr(exc, "problem_mark", None)
+    where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    return f"invalid YAML at {where}{problem}"
+
+
+def parse_yaml_value(text: str) -> Any:
+    """One YAML value with the scene file's rules (``1e-3`` is a float; aliases bounded).
+
+    Raises
+    ------
+    yaml.YAMLError
+    """
+    return yaml.load(text, Loader=_SceneLoader)
+
+
+def read_scene_data(path: Union[str, Path]) -> Any:
+    """The raw mapping of a scene file: size, aliases, nesting and duplicate keys checked.
+
+    Raises
+    ------
+    SceneError
+        No such file, not a regular file, larger than MAX_SCENE_BYTES, not UTF-8, or
+        invalid YAML (with line and column), in one line.
+    """
+    path = Path(path)
     source = str(path)
     if not path.exists():
         raise SceneError(source, "", "no such file")
     if path.is_dir():
         raise SceneError(source, "", "is a folder, not a scene file")
+    if not path.is_file():
+        raise SceneError(source, "", "is not a regular file")
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(source, "", f"cannot be read ({exc.__class__.__name__}: {exc})") from None
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_SCENE_BYTES + 1)
+    except OSError as exc:
+        raise SceneError(source, "", f"cannot be read ({exc.strerror or exc})") from None
+    if len(raw) > MAX_SCENE_BYTES:
+        raise SceneError(source, "", f"is larger than {MAX_SCENE_BYTES} bytes (1 MiB), the "
+                         f"largest scene file read; give long per-item lists as one value")
     try:
-        return yaml.safe_load(text)
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError(source, "", f"is not a UTF-8 text file (byte {exc.start}: "
+                         f"{exc.reason})") from None
+    try:
+        return parse_yaml_value(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise SceneError(source, "", f"invalid YAML at {where}{problem}") from None
+        raise SceneError(source, "", _yaml_problem(exc)) from None
+    except RecursionError:
+        raise SceneError(source, "", "invalid YAML: nested too deeply") from None
 
 
 def apply_overrides(data: dict, overrides: list[str], source: str = "--set") -> dict:
@@ -439,9 +750,10 @@ def apply_overrides(data: dict, overrides: list[str], source: str = "--set") -> 
         if not path or any(not p for p in path.split(".")):
             raise SceneError(source, path or item, "empty field name in dotted path")
         try:
-            value = yaml.safe_load(raw)
-        except yaml.YAMLError:
-            raise SceneError(source, path, f"value {raw!r} is not valid YAML") from None
+            value = parse_yaml_value(raw)
+        except yaml.YAMLError as exc:
+            raise SceneError(source, path, f"value {raw!r} is not valid YAML "
+                             f"({_yaml_problem(exc)})") from None
         target = data
         parts = path.split(".")
         for part in parts[:-1]:
@@ -476,7 +788,7 @@ def load_scene(path: Union[str, Path], overrides: Optional[list[str]] = None) ->
         One line naming the file, the dotted field and the problem.
     """
     path = Path(path)
-    data = _read_yaml(path)
+    data = read_scene_data(path)
     if data is None:
         raise SceneError(str(path), "", "the file is empty")
     if overrides:

@@ -12,9 +12,10 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
+from .budget import check_budget
 from .errors import SimulationError
 from .frames import Frame, FrameLog
-from .model import Model, build_model
+from .model import Model
 from .result import Result
 from .scene import Scene
 from .steppers.verlet_run import (  # noqa: F401  (re-exported: benchmarks and tests)
@@ -44,7 +45,7 @@ def preflight(scene: Scene) -> Model:
     SimulationError
         Naming the field to change and the limit (for example run.dt).
     """
-    model = build_model(scene)
+    model = check_budget(scene).model  # refuses, before allocating, what cannot run
     if scene.run.stepper == "verlet" and scene.run.check_dt:
         dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
         check_dt(model, dt)

@@ -106,8 +106,11 @@ def test_stop_at_rest_with_coulomb_friction():
 
 
 def test_max_steps_is_reported():
+    # With a stop condition the run may end before t_end, so run.max_steps is a cap
+    # (without one, t_end/dt > max_steps is refused up front: tests/test_bad_input.py).
     s = gc.scene_from_dict({"granules": {"count": 2, "velocity": [1.0, 0.0]},
-                            "run": {"dt": 1e-3, "t_end": 10.0, "max_steps": 500}})
+                            "run": {"dt": 1e-3, "t_end": 10.0, "max_steps": 500,
+                                    "stop": "separation"}})
     r = gc.simulate(s)
     assert r.status == gc.Status.MAX_STEPS and not r.success
     assert "run.max_steps" in r.message and r.steps == 500
