@@ -30,10 +30,19 @@ EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + signal number, as shells report
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with bad usage said in one line (the rule of every refusal here),
+    exit status 2; ``--help`` still prints the whole usage."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"granular-chain: {self.prog}: {message} "
+                                  f"(see {self.prog} --help)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
     from . import __version__
 
-    p = argparse.ArgumentParser(prog="granular-chain", description=__doc__.splitlines()[0])
+    p = _Parser(prog="granular-chain", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"granular-chain {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 

@@ -370,7 +370,7 @@ class Scene(_Strict):
                                     "must be 2.5 when stiffness is 'hertz' (Hertz law for spheres)")
         fr = self.granules.friction
         if fr.static is not None:
-            kin, sta = np.broadcast_arrays(_array(fr.kinetic), _array(fr.static))
+            kin, sta = np.broadcast_arrays(_array(fr.kinetic, n), _array(fr.static, n))
             below = np.flatnonzero(sta < kin)
             if below.size:
                 i = int(below[0])
@@ -390,10 +390,10 @@ class Scene(_Strict):
     def _check_overlaps(self, n: int) -> None:
         """Initial overlaps must be smaller than the radii. Scalars stay scalars (0-d):
         a scene of 10^9 granules is refused by its memory estimate, not by this loop."""
-        radius = _array(self.granules.radius)
+        radius = _array(self.granules.radius, n)
         if n > 1:
             r_min = np.minimum(radius[:-1], radius[1:]) if radius.ndim else radius
-            gap = _array(self.granules.gap)
+            gap = _array(self.granules.gap, n - 1)
             over = np.atleast_1d(-gap >= r_min)
             bad = np.flatnonzero(over)
             if bad.size:
@@ -414,8 +414,11 @@ class Scene(_Strict):
                     f"initial overlap {-wall.gap} is not smaller than the radius {float(end)}")
 
 
-def _array(value) -> np.ndarray:
-    """A per-item field as an array: 0-d for one value, 1-d for a list."""
+def _array(value, n: int) -> np.ndarray:
+    """A per-item field as an array: 0-d for one value, 1-d for a list or for
+    the ``n`` values a distribution recipe draws."""
+    if is_recipe(value):
+        return draw(value, n)
     return np.asarray(value, dtype=np.float64)
 
 
@@ -471,8 +474,10 @@ def _is_tag(part) -> bool:
 
 
 # 'constrained-float', 'function-before[_number(), float]', "literal['hertz']",
-# 'list[...]', '[key]'; a user's key such as 'x-wall' or '-1' is not one.
-_TAG = re.compile(r"^(constrained-\w+|function-(before|after|wrap|plain)\[.*\]|\w*\[.*\])$")
+# 'list[...]', '[key]', 'tagged-union[...]' (a distribution recipe); a user's key
+# such as 'x-wall' or '-1' is not one.
+_TAG = re.compile(r"^(constrained-\w+|function-(before|after|wrap|plain)\[.*\]|tagged-union\[.*\]"
+                  r"|\w*\[.*\])$")
 
 
 def _dotted(loc: tuple) -> str:

@@ -49,6 +49,8 @@ from typing import Any, Optional, Sequence
 import numpy as np
 import yaml
 
+from .scene import parse_yaml_value
+
 __all__ = [
     "Axis", "parse_grid", "parse_list", "grid_points", "set_path", "evaluate_point",
     "run_sweep", "SweepStats", "read_results", "plot_heatmap", "QUANTITIES",
@@ -122,7 +124,18 @@ def parse_grid(spec: str) -> Axis:
         vals = np.geomspace(a, b, n)
     else:
         vals = np.linspace(a, b, n)
+    if _is_int(parts[0]) and _is_int(parts[1]) and all(float(v).is_integer() for v in vals):
+        # whole-number ends and steps: the values are counts or indices, written as integers
+        return Axis(path.strip(), tuple(int(v) for v in vals), spec)
     return Axis(path.strip(), tuple(float(v) for v in vals), spec)
+
+
+def _is_int(text: str) -> bool:
+    try:
+        int(text)
+    except ValueError:
+        return False
+    return True
 
 
 def parse_list(spec: str) -> Axis:
@@ -133,7 +146,7 @@ def parse_list(spec: str) -> Axis:
     values = []
     for item in _split_top(raw):
         try:
-            values.append(yaml.safe_load(item))
+            values.append(parse_yaml_value(item))
         except yaml.YAMLError:
             raise SweepError(f"--list {spec!r}: {item!r} is not valid YAML") from None
     return Axis(path.strip(), tuple(values), spec)
@@ -436,14 +449,14 @@ def run_sweep(scene_path, axes: Sequence[Axis], *, out_dir, fixed: Sequence[str]
     SweepStats
         ``interrupted`` is true after Ctrl-C: the rows written so far are kept.
     """
-    from .scene import SceneError, apply_overrides
+    from .scene import SceneError, apply_overrides, read_scene_data
 
     scene_path = Path(scene_path)
     try:
+        data = read_scene_data(scene_path)
         text = scene_path.read_text()
-    except OSError as exc:
-        raise SweepError(f"{scene_path}: cannot be read ({exc.strerror or exc})") from None
-    data = yaml.safe_load(text)
+    except SceneError as exc:
+        raise SweepError(str(exc)) from None
     if not isinstance(data, dict):
         raise SweepError(f"{scene_path}: a scene must be a mapping of fields")
     try:

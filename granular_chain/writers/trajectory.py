@@ -326,13 +326,11 @@ def write_trajectory(result, folder: Path, scene=None) -> Path:
 
 def _scene_from_attr(h5, path):
     """The scene stored in the file (YAML; JSON in older files, which YAML reads too)."""
-    import yaml
-
-    from ..scene import scene_from_dict
+    from ..scene import parse_yaml_value, scene_from_dict
 
     if "scene" not in h5.attrs:
         return None
-    return scene_from_dict(yaml.safe_load(str(h5.attrs["scene"])), source=str(path))
+    return scene_from_dict(parse_yaml_value(str(h5.attrs["scene"])), source=str(path))
 
 
 def read_h5(path, summary: Optional[dict] = None):
