@@ -23,6 +23,7 @@ from numba import literally
 import numpy as np
 
 from .._compile import specialised
+from ..interrupts import CHUNK_SECONDS, stop_signals
 from ..model import LAW_LINEAR, Model
 from ..result import OVERLAP_ADVICE, EnergyLedger, Event, Result, Status
 from . import events_kernel as K
@@ -195,8 +196,15 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
         ``output.dt`` cadence (see :func:`_frame_interval`), and at the end; ``events`` the full event log; ``steps`` the Taylor steps taken.
     """
     packed = _pack_run(scene, model)
-    code, wall = _drive(packed)
-    return _build_result(packed, code, wall, scene, model, tscale)
+    with stop_signals() as stop:
+        code, wall = _drive(packed, stop)
+    result = _build_result(packed, code, wall, scene, model, tscale)
+    if code == C_INTERRUPTED:
+        result.info["signal"] = stop.signum
+        result.message = (f"stopped by {stop.name} at t = {result.t_final * tscale:.12g} "
+                          f"(t_end = {scene.run.t_end * tscale:g}); the result holds the "
+                          f"frames computed until then")
+    return result
 
 
 # Argument positions of the kernel (run_events), by name.
@@ -361,20 +369,74 @@ def _frame_interval(scene, N: int) -> float:
     return float(scene.run.t_end) / frames
 
 
-def _drive(packed: _Packed):
-    """Call the kernel until it stops for another reason than a full buffer.
+#: Code of a run stopped by SIGINT/SIGTERM between kernel calls (the driver's, not
+#: the kernel's: a kernel call never sees the signal).
+C_INTERRUPTED = 100
+#: Main-loop passes one point of an :class:`EventBatch` may make in the compiled
+#: loop before it is resumed from Python (a two-granule collision makes 5-100).
+POINT_BUDGET = 1 << 14
+#: Main-loop passes of the first kernel call; later calls are sized from the
+#: measured wall time (:func:`next_budget`).
+FIRST_BUDGET = 64
 
-    Returns the kernel's code and the wall time spent in it (seconds).
+
+def next_budget(budget: int, seconds: float) -> int:
+    """Passes for the next kernel call so that it lasts about CHUNK_SECONDS: scaled
+    by the time the last ``budget`` passes took, by at most 4x up and 8x down (one
+    slow pass, e.g. a page fault, must not shrink the budget to nothing)."""
+    if seconds <= 0.0:
+        return 4 * budget
+    scaled = budget * (0.5 * CHUNK_SECONDS / seconds)  # aim at half: passes vary
+    return int(min(max(scaled, budget / 8.0, 1.0), 4.0 * budget, 1 << 40))
+
+
+def _drive(packed: _Packed, stop=None):
+    """Call the kernel until it stops for another reason than a full buffer or a
+    spent work budget.
+
+    With a :class:`~granular_chain.interrupts.StopRequest` ``stop``, each call
+    makes a bounded number of main-loop passes (sized to return within about
+    CHUNK_SECONDS) and a requested stop ends the run with C_INTERRUPTED between
+    calls; the kernel resumes from its arrays, so the trajectory is the same
+    bit for bit as in one call. Returns the code and the wall time (seconds).
     """
     args = packed.args
     kernel = packed.kernel
+    ist = packed["ist"]
+    budget = FIRST_BUDGET
     start = time.perf_counter()
     while True:
+        ist[K.I_BUDGET] = budget if stop is not None else 0
+        t0 = time.perf_counter()
         code = kernel(*args)
-        if code != K.C_BUFFER:
+        if code == K.C_BUFFER:
+            _grow_buffers(args)
+            ist = args[_A["ist"]]
+        elif code == K.C_YIELD:
+            budget = next_budget(budget, time.perf_counter() - t0)
+        else:
             break
-        _grow_buffers(args)
+        if stop is not None and stop.requested:
+            code = C_INTERRUPTED
+            _final_frame(packed)
+            break
+    ist[K.I_BUDGET] = 0
     return code, time.perf_counter() - start
+
+
+def _final_frame(packed: _Packed) -> None:
+    """Record a frame at the state an interrupted run reached (kernel state is
+    consistent between calls), unless the last frame is already there."""
+    a = packed
+    ist, st = a["ist"], a["st"]
+    nfr = int(ist[K.I_NFR])
+    if a["fr_t"][nfr - 1] == st[K.S_T]:
+        return
+    if a["fr_t"].size - nfr < 1:
+        _grow_buffers(a.args)
+    K._record(a.args[0], st[K.S_T], a["x0"], a["u"], a["v"], a["dl"], a["closed"],
+              a["present"], a["kc"], a["nexp"], a["mass"], st, ist, a["fr_t"], a["fr_x"],
+              a["fr_v"], a["fr_f"], a["fr_e"], 0.0, 0.0)
 
 
 def _grow_buffers(args: list) -> None:
@@ -488,6 +550,8 @@ def _status(code, scene, model, st, ist, t, nev):
             where = (f"contact {j - 1} reached an overlap equal to the sum of the radii of "
                      f"granules {j - 1} and {j} (their centres meet)")
         return Status.OVERLAP, f"{where} at t = {t:.12g} (exact event time); " + OVERLAP_ADVICE
+    if code == C_INTERRUPTED:  # the message is set by the caller, who knows the signal
+        return Status.INTERRUPTED, "stopped by a signal"
     if code == K.C_MAX_STEPS:
         return Status.MAX_STEPS, (f"stopped after run.max_steps = {settings.max_steps} Taylor "
                                   f"steps at t = {t:.12g}; raise run.max_steps or loosen run.rtol")
@@ -505,7 +569,8 @@ def _status(code, scene, model, st, ist, t, nev):
 CODE_STATUS = {K.C_T_END: Status.T_END, K.C_SEPARATED: Status.SEPARATED,
                K.C_AT_REST: Status.AT_REST, K.C_MAX_EVENTS: Status.MAX_EVENTS,
                K.C_ZENO: Status.ZENO, K.C_MAX_STEPS: Status.MAX_STEPS,
-               K.C_NONFINITE: Status.NONFINITE, K.C_OVERLAP: Status.OVERLAP}
+               K.C_NONFINITE: Status.NONFINITE, K.C_OVERLAP: Status.OVERLAP,
+               C_INTERRUPTED: Status.INTERRUPTED}
 
 # The kernel's leading scalar arguments; the rest are arrays, passed to
 # _run_points as one tuple ``a`` (position in it: _A[name] - _NSCALAR).
@@ -540,25 +605,28 @@ def _extract(p, code, st, ist, fr_v, fr_e, ev_t, ev_k, ev_i, o_code, o_t, o_v, o
 
 @numba.njit(cache=True, error_model="numpy")
 def _run_points(law, coulomb, viscous, P, rtol, atol, a, fbuf, ftmp, ibuf, itmp, bbuf, btmp,
-                eta, eta_s, gamma, start, o_code, o_t, o_v, o_e, o_stop):
-    """Run the packed scene once per row p >= start of eta, eta_s, gamma (each (M, N)).
+                eta, eta_s, gamma, start, end, budget, o_code, o_t, o_v, o_e, o_stop):
+    """Run the packed scene once per row start <= p < end of eta, eta_s, gamma
+    (each (M, N)), each run with the kernel's work budget ``budget`` (0: none).
 
     ``a`` holds the kernel's array arguments, all views into the three flat
     buffers (float64, int64, int8), whose initial contents are ``*tmp``: each
     run starts from exactly the state the packing produced, with the point's
     friction and the friction-dependent entries (csl, slide, the n = 2 step
     cap) set by the same functions the packing uses. Results go to the o_
-    arrays (:func:`_extract`). Returns M, or the first point whose run filled a
-    buffer (C_BUFFER): its state is left in the arrays for the caller to grow
-    the buffers and resume, and the loop continues from the next point.
+    arrays (:func:`_extract`). Returns ``end``, or the first point whose run
+    filled a buffer (C_BUFFER) or spent its budget (C_YIELD): its state is left
+    in the arrays for the caller to resume, and the loop continues from the
+    next point.
     """
     law = literally(law)
     coulomb = literally(coulomb)
     viscous = literally(viscous)
-    for p in range(start, o_code.size):
+    for p in range(start, end):
         fbuf[:] = ftmp
         ibuf[:] = itmp
         bbuf[:] = btmp
+        a[_IST][K.I_BUDGET] = budget
         a[_ETA][:] = eta[p]
         a[_ETAS][:] = eta_s[p]
         a[_GAMMA][:] = gamma[p]
@@ -571,11 +639,11 @@ def _run_points(law, coulomb, viscous, P, rtol, atol, a, fbuf, ftmp, ibuf, itmp,
             a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27], a[28], a[29],
             a[30], a[31], a[32], a[33], a[34], a[35], a[36], a[37], a[38], a[39], a[40],
             a[41], a[42], a[43], a[44], a[45])
-        if code == K.C_BUFFER:
+        if code == K.C_BUFFER or code == K.C_YIELD:
             return p
         _extract(p, code, a[_ST], a[_IST], a[_FRV], a[_FRE], a[_EVT], a[_EVK], a[_EVI],
                  o_code, o_t, o_v, o_e, o_stop)
-    return o_code.size
+    return end
 
 
 @dataclasses.dataclass
@@ -591,6 +659,7 @@ class BatchOutput:
     t_stop: np.ndarray  #: (M, N) time of each granule's first stop event, NaN if none
     wall_time: float  #: seconds in the kernel (compiled loop and resumed runs)
     last_args: list  #: the kernel's arguments holding the last point's run
+    signal: int = 0  #: SIGINT/SIGTERM number if a stop request ended the batch early
 
 
 class EventBatch:
@@ -642,7 +711,7 @@ class EventBatch:
 
     def _call_args(self, eta, eta_s, gamma):
         M, N = eta.shape
-        return [*self._head, self._arrays, *self._flat, eta, eta_s, gamma, 0,
+        return [*self._head, self._arrays, *self._flat, eta, eta_s, gamma, 0, M, 0,
                 np.zeros(M, dtype=np.int64), np.zeros(M), np.zeros((M, N)), np.zeros((M, 3)),
                 np.zeros((M, N))]
 
@@ -658,33 +727,45 @@ class EventBatch:
             raise ValueError(f"eta, eta_static and gamma must all have shape {shape}")
         call = self._call_args(*arrs)
         M = shape[0]
-        i_start = _NSCALAR + 10
-        code, t, v, e, stop = call[-5:]
+        i_start = _NSCALAR + 10  # positions of start, end, budget in the call
+        code, t, v, e, t_stop = call[-5:]
         last = self.packed.args
         wall = 0.0
-        while True:
-            t0 = time.perf_counter()
-            p = self._entry(*call)
-            wall += time.perf_counter() - t0
-            if p >= M:
-                break
-            # Point p filled a buffer: grow and resume it the ordinary way
-            # (_drive), on a copy of the argument list (the grown buffers
-            # replace the flat buffers' views there only).
-            grown = list(self.packed.args)
-            _grow_buffers(grown)
-            pk = dataclasses.replace(self.packed, args=grown)
-            c, w = _drive(pk)
-            wall += w
-            _extract(p, c, pk["st"], pk["ist"], pk["fr_v"], pk["fr_e"], pk["ev_t"], pk["ev_k"],
-                     pk["ev_i"], code, t, v, e, stop)
-            # the last point's run: in the grown buffers if it was this one, else
-            # (later points ran in the loop) in the flat buffers' views
-            last = grown if p == M - 1 else self.packed.args
-            call[i_start] = p + 1
+        p = 0
+        chunk = 16  # points per compiled call, sized to about CHUNK_SECONDS
+        call[i_start + 2] = POINT_BUDGET
+        with stop_signals() as stop:
+            while p < M and not stop.requested:
+                end = min(M, p + chunk)
+                call[i_start:i_start + 2] = [p, end]
+                t0 = time.perf_counter()
+                q = self._entry(*call)
+                dt = time.perf_counter() - t0
+                wall += dt
+                chunk = next_budget(chunk, dt * chunk / max(q - p, 1))
+                if q >= end:
+                    p = end
+                    continue
+                # Point q filled a buffer or spent its budget: resume it the
+                # ordinary way (_drive), on a copy of the argument list (grown
+                # buffers replace the flat buffers' views there only).
+                grown = list(self.packed.args)
+                _grow_buffers(grown)
+                pk = dataclasses.replace(self.packed, args=grown)
+                c, w = _drive(pk, stop)
+                wall += w
+                _extract(q, c, pk["st"], pk["ist"], pk["fr_v"], pk["fr_e"], pk["ev_t"],
+                         pk["ev_k"], pk["ev_i"], code, t, v, e, t_stop)
+                # the last point's run: in the grown buffers if it was this one, else
+                # (later points ran in the loop) in the flat buffers' views
+                last = grown if q == M - 1 else self.packed.args
+                p = q + 1
+        if p < M:  # stopped by a signal: the points not run are marked so
+            code[p:] = C_INTERRUPTED
+            t[p:] = math.nan
         return BatchOutput(code=code, t_final=t, v_final=v, kinetic=e[:, 0], potential=e[:, 1],
-                           initial=self.packed.ke0 + e[:, 2], t_stop=stop, wall_time=wall,
-                           last_args=last)
+                           initial=self.packed.ke0 + e[:, 2], t_stop=t_stop, wall_time=wall,
+                           last_args=last, signal=stop.signum)
 
     def result(self, out: BatchOutput) -> Result:
         """The full Result of the last point of ``out`` (as simulate_events returns it)."""
