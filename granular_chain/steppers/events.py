@@ -24,6 +24,7 @@ import numpy as np
 
 from .._compile import specialised
 from ..interrupts import CHUNK_SECONDS, stop_signals
+from ..ledger import ledger_verdict
 from ..model import LAW_LINEAR, Model
 from ..result import OVERLAP_ADVICE, EnergyLedger, Event, Result, Status
 from . import events_kernel as K
@@ -155,8 +156,36 @@ def _scaled_model(model: Model, M: float, A: float, B: float) -> Model:
         eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M))
 
 
+#: Smallest contact exponent the event stepper accepts. Below it the contact force
+#: k delta^(n-1) has a derivative growing fast as delta -> 0 and the ledger error
+#: grows far beyond the rtol-based promise (measured, default rtol 1e-12, two
+#: spheres: n = 1.5: 5.7e-10 against a promise of 1.6e-10; n = 1.01: 2.9e-3;
+#: n = 1.6 at rtol 1e-14: 0.8 of the promise; n = 1.75: at most 0.03 of it on
+#: the scenes of tests/test_events_safety.py). Verlet takes every n > 1.
+MIN_EXPONENT = 1.75
+
+
+def check_exponents(model: Model) -> None:
+    """Refuse a scene whose contacts (walls included) have an exponent below
+    MIN_EXPONENT (SimulationError naming contacts.exponent)."""
+    n = [float(x) for x in model.n]
+    w = model.walls
+    if model.features.left_wall:
+        n.append(float(w[2]))
+    if model.features.right_wall:
+        n.append(float(w[5]))
+    low = [x for x in n if x < MIN_EXPONENT]
+    if low:
+        from ..simulate import SimulationError
+        raise SimulationError(
+            f"contacts.exponent: the event stepper accepts exponents n >= {MIN_EXPONENT} "
+            f"(n = 2 exactly, others to run.rtol); got n = {min(low):g}, for which its energy "
+            f"ledger misses the promised tolerance (docs/events.md); use run.stepper: verlet")
+
+
 def simulate_events(scene, model: Model) -> Result:
     """Run the scene with the event stepper in its own scaled units (see :func:`_scales`)."""
+    check_exponents(model)
     scales = _scales(model)
     if scales is None:
         atol = _unscaled_atol(model, scene.run.atol)
@@ -178,6 +207,8 @@ def simulate_events(scene, model: Model) -> Result:
     r.t_final, r.x_final, r.v_final = r.t_final * B, r.x_final * A, r.v_final * V
     r.events = [Event(e.t * B, e.kind, e.index) for e in r.events]
     r.info["event_stepper"]["internal_scales"] = {"mass": M, "length": A, "time": B}
+    # the ledger in the scene's units (rounded again by the scaling): judged again
+    r.status, r.message = ledger_verdict(r, r.info["event_stepper"]["ledger_tolerance"])
     if model.units == "physical":
         from ..units import scaled_parameters
         r.info["scaled"] = scaled_parameters(model)
@@ -471,21 +502,62 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
     energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                           coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
                           initial=e0)
+    tol = ledger_tolerance(packed, e0)
     events = [Event(float(ev_t[q]), EVENT_KINDS[int(ev_k[q])], int(ev_i[q])) for q in range(nev)]
     info = {"features": feat.describe(), "granules": model.count, "units": model.units,
             "event_stepper": {"taylor_order": packed.P, "rtol": packed.rtol,
                               "atol": packed.atol, "exact_modes": bool(packed.linear),
-                              "event_batches": int(ist[K.I_BATCHES])}}
+                              "event_batches": int(ist[K.I_BATCHES]),
+                              "ledger_tolerance": tol}}
     if model.units == "physical":
         from ..units import scaled_parameters
         info["scaled"] = scaled_parameters(model)
     x = fr_x[:nfr].copy()
     vv = fr_v[:nfr].copy()
-    return Result(
+    r = Result(
         t=fr_t[:nfr].copy(), x=x, v=vv, f=fr_f[:nfr].copy(), energy=energy, status=status,
         message=message, steps=int(ist[K.I_STEPS]), wall_time=wall, stepper="event", dt=None,
         t_final=t_final, x_final=x[-1].copy(), v_final=vv[-1].copy(), events=events,
         event_counts={k: int(n) for k, n in zip(EVENT_KINDS, counts)}, info=info)
+    r.status, r.message = ledger_verdict(r, tol)
+    return r
+
+
+#: n = 2 (exact modes): ledger error promised per unit of work, in units of eps.
+#: A step sums series whose terms stay below ~3 times the result (L h <= 1/2), so
+#: it rounds each state entry by a few ulps; the energy is quadratic in the state
+#: (2x the relative error); an event batch sets and re-rounds the same entries;
+#: the ledger's own sums over N granules round by ~N ulps. Errors add at worst
+#: linearly: 8 eps per step, batch and granule.
+EXACT_LEDGER_ULPS = 8.0
+
+
+def ledger_tolerance(packed: _Packed, e0: float) -> float:
+    """The largest energy-ledger error (relative to the initial energy ``e0``) the
+    event stepper promises for the run held in ``packed`` (kernel units).
+
+    * n = 2 (exact modes): ``EXACT_LEDGER_ULPS * eps * (steps + batches + N + 1)``.
+    * other n: each step keeps every velocity's and overlap's local error below
+      ``tol = rtol * |x| + atol``, which changes the energy by at most
+      ``max(2, n) rtol`` of it plus ``atol`` times the momenta and forces,
+      ``2 atol / V`` relative (V = sqrt(2 e0 / total mass), the speed scale); an
+      opening or closing leaves out an impulse below ``tol / 10`` (the contact
+      switching rule) and its event root is located to a few ulps, counted as
+      two steps. At worst linearly accumulated:
+      ``(steps + 2 batches + 1) * (max(2, n) rtol + 2 atol / V)``.
+    """
+    ist = packed["ist"]
+    steps = int(ist[K.I_STEPS])
+    batches = int(ist[K.I_BATCHES])
+    N = packed["u"].size
+    if packed.linear:
+        return EXACT_LEDGER_ULPS * np.finfo(float).eps * (steps + batches + N + 1)
+    present = packed["present"] == 1
+    n_max = float(np.max(packed["nexp"][present])) if present.any() else 2.0
+    m_tot = float(np.sum(packed["mass"]))
+    V = math.sqrt(2.0 * e0 / m_tot) if e0 > 0.0 else math.inf
+    per_step = max(2.0, n_max) * packed.rtol + 2.0 * packed.atol / V
+    return (steps + 2 * batches + 1) * per_step
 
 
 def _overlap_limits(model: Model) -> np.ndarray:
