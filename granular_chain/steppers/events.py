@@ -255,6 +255,9 @@ class _Packed:
     atol: float
     linear: bool
     ke0: float  #: initial kinetic energy
+    #: (steps still needed at the pace reached, that pace) when the run stopped
+    #: because run.max_steps could not reach t_end (C_OUT_OF_STEPS)
+    projection: tuple = (0.0, 0.0)
 
     def __getitem__(self, name):
         return self.args[_A[name]]
@@ -403,6 +406,12 @@ def _frame_interval(scene, N: int) -> float:
 #: Code of a run stopped by SIGINT/SIGTERM between kernel calls (the driver's, not
 #: the kernel's: a kernel call never sees the signal).
 C_INTERRUPTED = 100
+#: Code of a run stopped because, at the pace its steps have reached, t_end lies
+#: beyond run.max_steps (see :func:`_out_of_steps`).
+C_OUT_OF_STEPS = 101
+#: Taylor steps before the pace of a run is judged (its start and first events
+#: can take short steps that later ones do not).
+PACE_MIN_STEPS = 10_000
 #: Main-loop passes one point of an :class:`EventBatch` may make in the compiled
 #: loop before it is resumed from Python (a two-granule collision makes 5-100).
 POINT_BUDGET = 1 << 14
@@ -433,9 +442,10 @@ def _drive(packed: _Packed, stop=None):
     """
     args = packed.args
     kernel = packed.kernel
-    ist = packed["ist"]
+    ist, st = packed["ist"], packed["st"]
     budget = FIRST_BUDGET
     start = time.perf_counter()
+    mark = (float(st[K.S_T]), int(ist[K.I_STEPS]))
     while True:
         ist[K.I_BUDGET] = budget if stop is not None else 0
         t0 = time.perf_counter()
@@ -445,6 +455,11 @@ def _drive(packed: _Packed, stop=None):
             ist = args[_A["ist"]]
         elif code == K.C_YIELD:
             budget = next_budget(budget, time.perf_counter() - t0)
+            if _out_of_steps(packed, mark):
+                code = C_OUT_OF_STEPS
+                _final_frame(packed)
+                break
+            mark = (float(st[K.S_T]), int(ist[K.I_STEPS]))
         else:
             break
         if stop is not None and stop.requested:
@@ -453,6 +468,32 @@ def _drive(packed: _Packed, stop=None):
             break
     ist[K.I_BUDGET] = 0
     return code, time.perf_counter() - start
+
+
+def _out_of_steps(packed: _Packed, mark) -> bool:
+    """True when t_end cannot be reached within run.max_steps even at the faster of
+    two paces: the mean step over the run so far and over the last kernel call
+    (``mark`` = (t, steps) at its start). Judged only after PACE_MIN_STEPS steps.
+
+    The event stepper's steps are bounded by the fastest time scale of the mode
+    (n = 2: a quarter of 1/(drag rate + contact rate); other n: the series'
+    radius): an overdamped scene, drag rate gamma/m far above every contact
+    rate, creeps on the slow time scale gamma/k and would need t_end gamma/m
+    steps. Such a run ends at once with Status.MAX_STEPS and the numbers, not
+    after hours. Sets ``packed.projection``.
+    """
+    ist, st = packed["ist"], packed["st"]
+    steps = int(ist[K.I_STEPS])
+    if steps < PACE_MIN_STEPS or steps <= mark[1]:
+        return False
+    t = float(st[K.S_T])
+    pace = max(t / steps, (t - mark[0]) / (steps - mark[1]))
+    left = int(ist[K.I_MAXSTEPS]) - steps
+    need = (float(st[K.S_TEND]) - t) / pace if pace > 0.0 else math.inf
+    if need <= left:
+        return False
+    packed.projection = (need, pace)
+    return True
 
 
 def _final_frame(packed: _Packed) -> None:
@@ -499,6 +540,8 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
     if tscale != 1.0:  # (times 1.0 is exact: skip the arrays for the common case)
         st = st * _time_fields(tscale)
     status, message = _status(code, scene, model, st, ist, t_final * tscale, nev)
+    if code == C_OUT_OF_STEPS:
+        message = _out_of_steps_message(packed, model, scene, t_final, tscale)
     energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                           coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
                           initial=e0)
@@ -584,6 +627,27 @@ def _grow(a: np.ndarray, n: int) -> np.ndarray:
     return b
 
 
+def _out_of_steps_message(packed, model, scene, t, tscale) -> str:
+    need, pace = packed.projection
+    ist = packed["ist"]
+    msg = (f"stopped at t = {t * tscale:.6g} after {int(ist[K.I_STEPS])} Taylor steps: at the "
+           f"pace reached (mean step {pace * tscale:.3g}) t_end = {scene.run.t_end * tscale:g} needs "
+           f"~{need:.3g} more steps, more than run.max_steps = {scene.run.max_steps} allows")
+    # in kernel units: the fastest drag rate against the fastest contact rate
+    drag = float(np.max(packed["gamma"] / packed["mass"]))
+    present = packed["present"] == 1
+    kmax = float(np.max(packed["kc"][present])) if present.any() else 0.0
+    contact = math.sqrt(kmax / float(np.min(packed["mass"])))
+    if drag > 10.0 * contact:
+        msg += (f"; the scene is overdamped (drag time m/gamma = {tscale / drag:.3g}, far "
+                f"shorter than the contact time): the steps cannot exceed the drag time while "
+                f"the granules creep on a far slower time scale; the Verlet stepper integrates "
+                f"drag exactly, or shorten t_end")
+    else:
+        msg += "; raise run.max_steps or shorten t_end"
+    return msg
+
+
 def _status(code, scene, model, st, ist, t, nev):
     settings = scene.run
     steps = int(ist[K.I_STEPS])
@@ -622,6 +686,8 @@ def _status(code, scene, model, st, ist, t, nev):
             where = (f"contact {j - 1} reached an overlap equal to the sum of the radii of "
                      f"granules {j - 1} and {j} (their centres meet)")
         return Status.OVERLAP, f"{where} at t = {t:.12g} (exact event time); " + OVERLAP_ADVICE
+    if code == C_OUT_OF_STEPS:  # the message is set by the caller (_out_of_steps_message)
+        return Status.MAX_STEPS, "t_end out of reach within run.max_steps"
     if code == C_INTERRUPTED:  # the message is set by the caller, who knows the signal
         return Status.INTERRUPTED, "stopped by a signal"
     if code == K.C_MAX_STEPS:
