@@ -545,7 +545,7 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
     energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                           coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
                           initial=e0)
-    tol = ledger_tolerance(packed, e0)
+    tol = ledger_tolerance(packed, e0, float(fr_e[nfr - 1, 2] + fr_e[nfr - 1, 3]))
     events = [Event(float(ev_t[q]), EVENT_KINDS[int(ev_k[q])], int(ev_i[q])) for q in range(nev)]
     info = {"features": feat.describe(), "granules": model.count, "units": model.units,
             "event_stepper": {"taylor_order": packed.P, "rtol": packed.rtol,
@@ -575,19 +575,22 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
 EXACT_LEDGER_ULPS = 8.0
 
 
-def ledger_tolerance(packed: _Packed, e0: float) -> float:
+def ledger_tolerance(packed: _Packed, e0: float, work: float) -> float:
     """The largest energy-ledger error (relative to the initial energy ``e0``) the
-    event stepper promises for the run held in ``packed`` (kernel units).
+    event stepper promises for the run held in ``packed`` (kernel units);
+    ``work`` is the energy dissipated by friction over the run.
 
     * n = 2 (exact modes): ``EXACT_LEDGER_ULPS * eps * (steps + batches + N + 1)``.
-    * other n: each step keeps every velocity's and overlap's local error below
-      ``tol = rtol * |x| + atol``, which changes the energy by at most
-      ``max(2, n) rtol`` of it plus ``atol`` times the momenta and forces,
-      ``2 atol / V`` relative (V = sqrt(2 e0 / total mass), the speed scale); an
-      opening or closing leaves out an impulse below ``tol / 10`` (the contact
-      switching rule) and its event root is located to a few ulps, counted as
-      two steps. At worst linearly accumulated:
-      ``(steps + 2 batches + 1) * (max(2, n) rtol + 2 atol / V)``.
+    * other n: each step keeps the last two terms of every velocity's and
+      overlap's series below ``tol = rtol * |x| + atol``; with terms falling at
+      least by half, the truncation error is below ``2 tol``. That changes the
+      energy by at most ``max(2, n) rtol`` of it plus ``atol`` times the momenta
+      and forces, ``2 atol / V`` relative (V = sqrt(2 e0 / total mass), the speed
+      scale); an opening or closing leaves out an impulse below ``tol / 10``
+      (the contact switching rule) and its root is located to a few ulps,
+      counted as two steps; the friction work, integrated from the series of v,
+      is off by at most ``2 rtol`` of itself. At worst linearly accumulated:
+      ``2 [(steps + 2 batches + 1) (max(2, n) rtol + 2 atol / V) + 2 rtol work / e0]``.
     """
     ist = packed["ist"]
     steps = int(ist[K.I_STEPS])
@@ -600,7 +603,8 @@ def ledger_tolerance(packed: _Packed, e0: float) -> float:
     m_tot = float(np.sum(packed["mass"]))
     V = math.sqrt(2.0 * e0 / m_tot) if e0 > 0.0 else math.inf
     per_step = max(2.0, n_max) * packed.rtol + 2.0 * packed.atol / V
-    return (steps + 2 * batches + 1) * per_step
+    friction = 2.0 * packed.rtol * abs(work) / e0 if e0 > 0.0 else 0.0
+    return 2.0 * ((steps + 2 * batches + 1) * per_step + friction)
 
 
 def _overlap_limits(model: Model) -> np.ndarray:
