@@ -503,11 +503,15 @@ def _ledger(coulomb, viscous, P, nm, mov, slide, eta, gamma, U, V, Q, tau):
                 wc += eta[i] * slide[i] * _increment(U[i], P, tau)
         if viscous:
             if gamma[i] > 0.0:
-                # integral of v^2: the square's series, integrated term by term.
+                # integral of v^2: the square of the step's velocity polynomial
+                # (degree 2P, all of it), integrated term by term. Truncating the
+                # square at degree P left out terms the velocity's step control
+                # never sees (v^2 decays twice as fast): a free granule under drag
+                # (n = 5/2, c h = 1.5 per step) lost 1.7e-10 of the energy in 16 steps.
                 s = 0.0
-                for kk in range(P, -1, -1):
+                for kk in range(2 * P, -1, -1):
                     acc = 0.0
-                    for a in range(kk + 1):
+                    for a in range(max(0, kk - P), min(kk, P) + 1):
                         acc += V[i, a] * V[i, kk - a]
                     s = s * tau + acc / (kk + 1)
                 wv += gamma[i] * s * tau
