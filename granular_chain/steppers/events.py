@@ -158,10 +158,9 @@ def _scaled_model(model: Model, M: float, A: float, B: float) -> Model:
 
 #: Smallest contact exponent the event stepper accepts. Below it the contact force
 #: k delta^(n-1) has a derivative growing fast as delta -> 0 and the ledger error
-#: grows far beyond the rtol-based promise (measured, default rtol 1e-12, two
-#: spheres: n = 1.5: 5.7e-10 against a promise of 1.6e-10; n = 1.01: 2.9e-3;
-#: n = 1.6 at rtol 1e-14: 0.8 of the promise; n = 1.75: at most 0.03 of it on
-#: the scenes of tests/test_events_safety.py). Verlet takes every n > 1.
+#: grows far beyond the rtol-based promise (measured, two spheres, ledger error /
+#: promise at rtol 1e-12: n = 1.01: 2.4e-3 / 3.2e-10; 1.5: 3.5e-10 / 3.1e-10;
+#: 1.6: 0.1 of it; 1.75: 0.001 of it; docs/events.md). Verlet takes every n > 1.
 MIN_EXPONENT = 1.75
 
 
