@@ -26,6 +26,7 @@ from .model import build_model, friction_features
 from .result import Result, Status
 from .scene import scene_from_dict
 from .simulate import simulate
+from .interrupts import stop_signals
 from .steppers.events import CODE_STATUS, EventBatch, _scales
 
 __all__ = ["Outcome", "OUTCOMES", "Collision", "CollisionMap", "collide", "collision_map",
@@ -510,7 +511,10 @@ def collision_map(eta1, eta2, n: float = 2.0, gamma=(0.0, 0.0), *, eta_static=No
                 parts = [(t[0],) + r for t, r in zip(tasks, pool.map(_map_task, tasks,
                                                                     chunksize=1))]
         else:
-            parts = [(t[0],) + _map_task(t) for t in tasks]
+            # one stop request for every task: after SIGINT/SIGTERM the tasks left
+            # return at once with their points marked INTERRUPTED
+            with stop_signals():
+                parts = [(t[0],) + _map_task(t) for t in tasks]
     finally:
         _MAP_WORK.clear()
     for g, lo, hi, c_, t_, v_, ke_, pe_, e0_, ts_ in parts:

@@ -23,6 +23,8 @@ from numba import literally
 import numpy as np
 
 from .._compile import specialised
+from ..interrupts import CHUNK_SECONDS, StopRequest, stop_signals
+from ..ledger import ledger_verdict
 from ..model import LAW_LINEAR, Model
 from ..result import OVERLAP_ADVICE, EnergyLedger, Event, Result, Status
 from . import events_kernel as K
@@ -154,8 +156,35 @@ def _scaled_model(model: Model, M: float, A: float, B: float) -> Model:
         eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M))
 
 
+#: Smallest contact exponent the event stepper accepts. Below it the contact force
+#: k delta^(n-1) has a derivative growing fast as delta -> 0 and the ledger error
+#: grows far beyond the rtol-based promise (measured, two spheres, ledger error /
+#: promise at rtol 1e-12: n = 1.01: 2.4e-3 / 3.2e-10; 1.5: 3.5e-10 / 3.1e-10;
+#: 1.6: 0.1 of it; 1.75: 0.001 of it; docs/events.md). Verlet takes every n > 1.
+MIN_EXPONENT = 1.75
+
+
+def check_exponents(model: Model) -> None:
+    """Refuse a scene whose contacts (walls included) have an exponent below
+    MIN_EXPONENT (SimulationError naming contacts.exponent)."""
+    n = [float(x) for x in model.n]
+    w = model.walls
+    if model.features.left_wall:
+        n.append(float(w[2]))
+    if model.features.right_wall:
+        n.append(float(w[5]))
+    low = [x for x in n if x < MIN_EXPONENT]
+    if low:
+        from ..simulate import SimulationError
+        raise SimulationError(
+            f"contacts.exponent: the event stepper accepts exponents n >= {MIN_EXPONENT} "
+            f"(n = 2 exactly, others to run.rtol); got n = {min(low):g}, for which its energy "
+            f"ledger misses the promised tolerance (docs/events.md); use run.stepper: verlet")
+
+
 def simulate_events(scene, model: Model) -> Result:
     """Run the scene with the event stepper in its own scaled units (see :func:`_scales`)."""
+    check_exponents(model)
     scales = _scales(model)
     if scales is None:
         atol = _unscaled_atol(model, scene.run.atol)
@@ -177,6 +206,8 @@ def simulate_events(scene, model: Model) -> Result:
     r.t_final, r.x_final, r.v_final = r.t_final * B, r.x_final * A, r.v_final * V
     r.events = [Event(e.t * B, e.kind, e.index) for e in r.events]
     r.info["event_stepper"]["internal_scales"] = {"mass": M, "length": A, "time": B}
+    # the ledger in the scene's units (rounded again by the scaling): judged again
+    r.status, r.message = ledger_verdict(r, r.info["event_stepper"]["ledger_tolerance"])
     if model.units == "physical":
         from ..units import scaled_parameters
         r.info["scaled"] = scaled_parameters(model)
@@ -195,8 +226,15 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
         ``output.dt`` cadence (see :func:`_frame_interval`), and at the end; ``events`` the full event log; ``steps`` the Taylor steps taken.
     """
     packed = _pack_run(scene, model)
-    code, wall = _drive(packed)
-    return _build_result(packed, code, wall, scene, model, tscale)
+    with stop_signals() as stop:
+        code, wall = _drive(packed, stop)
+    result = _build_result(packed, code, wall, scene, model, tscale)
+    if code == C_INTERRUPTED:
+        result.info["signal"] = stop.signum
+        result.message = (f"stopped by {stop.name} at t = {result.t_final * tscale:.12g} "
+                          f"(t_end = {scene.run.t_end * tscale:g}); the result holds the "
+                          f"frames computed until then")
+    return result
 
 
 # Argument positions of the kernel (run_events), by name.
@@ -216,6 +254,9 @@ class _Packed:
     atol: float
     linear: bool
     ke0: float  #: initial kinetic energy
+    #: (steps still needed at the pace reached, that pace) when the run stopped
+    #: because run.max_steps could not reach t_end (C_OUT_OF_STEPS)
+    projection: tuple = (0.0, 0.0)
 
     def __getitem__(self, name):
         return self.args[_A[name]]
@@ -361,20 +402,112 @@ def _frame_interval(scene, N: int) -> float:
     return float(scene.run.t_end) / frames
 
 
-def _drive(packed: _Packed):
-    """Call the kernel until it stops for another reason than a full buffer.
+#: Code of a run stopped by SIGINT/SIGTERM between kernel calls (the driver's, not
+#: the kernel's: a kernel call never sees the signal).
+C_INTERRUPTED = 100
+#: Code of a run stopped because, at the pace its steps have reached, t_end lies
+#: beyond run.max_steps (see :func:`_out_of_steps`).
+C_OUT_OF_STEPS = 101
+#: Taylor steps before the pace of a run is judged (its start and first events
+#: can take short steps that later ones do not).
+PACE_MIN_STEPS = 10_000
+#: Main-loop passes one point of an :class:`EventBatch` may make in the compiled
+#: loop before it is resumed from Python (a two-granule collision makes 5-100).
+POINT_BUDGET = 1 << 14
+#: Main-loop passes of the first kernel call; later calls are sized from the
+#: measured wall time (:func:`next_budget`).
+FIRST_BUDGET = 64
 
-    Returns the kernel's code and the wall time spent in it (seconds).
+
+def next_budget(budget: int, seconds: float) -> int:
+    """Passes for the next kernel call so that it lasts about CHUNK_SECONDS: scaled
+    by the time the last ``budget`` passes took, by at most 4x up and 8x down (one
+    slow pass, e.g. a page fault, must not shrink the budget to nothing)."""
+    if seconds <= 0.0:
+        return 4 * budget
+    scaled = budget * (0.5 * CHUNK_SECONDS / seconds)  # aim at half: passes vary
+    return int(min(max(scaled, budget / 8.0, 1.0), 4.0 * budget, 1 << 40))
+
+
+def _drive(packed: _Packed, stop=None):
+    """Call the kernel until it stops for another reason than a full buffer or a
+    spent work budget.
+
+    With a :class:`~granular_chain.interrupts.StopRequest` ``stop``, each call
+    makes a bounded number of main-loop passes (sized to return within about
+    CHUNK_SECONDS) and a requested stop ends the run with C_INTERRUPTED between
+    calls; the kernel resumes from its arrays, so the trajectory is the same
+    bit for bit as in one call. Returns the code and the wall time (seconds).
     """
     args = packed.args
     kernel = packed.kernel
+    ist, st = packed["ist"], packed["st"]
+    budget = FIRST_BUDGET
     start = time.perf_counter()
+    mark = (float(st[K.S_T]), int(ist[K.I_STEPS]))
     while True:
+        ist[K.I_BUDGET] = budget if stop is not None else 0
+        t0 = time.perf_counter()
         code = kernel(*args)
-        if code != K.C_BUFFER:
+        if code == K.C_BUFFER:
+            _grow_buffers(args)
+            ist = args[_A["ist"]]
+        elif code == K.C_YIELD:
+            budget = next_budget(budget, time.perf_counter() - t0)
+            if _out_of_steps(packed, mark):
+                code = C_OUT_OF_STEPS
+                _final_frame(packed)
+                break
+            mark = (float(st[K.S_T]), int(ist[K.I_STEPS]))
+        else:
             break
-        _grow_buffers(args)
+        if stop is not None and stop.requested:
+            code = C_INTERRUPTED
+            _final_frame(packed)
+            break
+    ist[K.I_BUDGET] = 0
     return code, time.perf_counter() - start
+
+
+def _out_of_steps(packed: _Packed, mark) -> bool:
+    """True when t_end cannot be reached within run.max_steps even at the faster of
+    two paces: the mean step over the run so far and over the last kernel call
+    (``mark`` = (t, steps) at its start). Judged only after PACE_MIN_STEPS steps.
+
+    The event stepper's steps are bounded by the fastest time scale of the mode
+    (n = 2: a quarter of 1/(drag rate + contact rate); other n: the series'
+    radius): an overdamped scene, drag rate gamma/m far above every contact
+    rate, creeps on the slow time scale gamma/k and would need t_end gamma/m
+    steps. Such a run ends at once with Status.MAX_STEPS and the numbers, not
+    after hours. Sets ``packed.projection``.
+    """
+    ist, st = packed["ist"], packed["st"]
+    steps = int(ist[K.I_STEPS])
+    if steps < PACE_MIN_STEPS or steps <= mark[1]:
+        return False
+    t = float(st[K.S_T])
+    pace = max(t / steps, (t - mark[0]) / (steps - mark[1]))
+    left = int(ist[K.I_MAXSTEPS]) - steps
+    need = (float(st[K.S_TEND]) - t) / pace if pace > 0.0 else math.inf
+    if need <= left:
+        return False
+    packed.projection = (need, pace)
+    return True
+
+
+def _final_frame(packed: _Packed) -> None:
+    """Record a frame at the state an interrupted run reached (kernel state is
+    consistent between calls), unless the last frame is already there."""
+    a = packed
+    ist, st = a["ist"], a["st"]
+    nfr = int(ist[K.I_NFR])
+    if a["fr_t"][nfr - 1] == st[K.S_T]:
+        return
+    if a["fr_t"].size - nfr < 1:
+        _grow_buffers(a.args)
+    K._record(a.args[0], st[K.S_T], a["x0"], a["u"], a["v"], a["dl"], a["closed"],
+              a["present"], a["kc"], a["nexp"], a["mass"], st, ist, a["fr_t"], a["fr_x"],
+              a["fr_v"], a["fr_f"], a["fr_e"], 0.0, 0.0)
 
 
 def _grow_buffers(args: list) -> None:
@@ -406,24 +539,71 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
     if tscale != 1.0:  # (times 1.0 is exact: skip the arrays for the common case)
         st = st * _time_fields(tscale)
     status, message = _status(code, scene, model, st, ist, t_final * tscale, nev)
+    if code == C_OUT_OF_STEPS:
+        message = _out_of_steps_message(packed, model, scene, t_final, tscale)
     energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                           coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
                           initial=e0)
+    tol = ledger_tolerance(packed, e0, float(fr_e[nfr - 1, 2] + fr_e[nfr - 1, 3]))
     events = [Event(float(ev_t[q]), EVENT_KINDS[int(ev_k[q])], int(ev_i[q])) for q in range(nev)]
     info = {"features": feat.describe(), "granules": model.count, "units": model.units,
             "event_stepper": {"taylor_order": packed.P, "rtol": packed.rtol,
                               "atol": packed.atol, "exact_modes": bool(packed.linear),
-                              "event_batches": int(ist[K.I_BATCHES])}}
+                              "event_batches": int(ist[K.I_BATCHES]),
+                              "ledger_tolerance": tol}}
     if model.units == "physical":
         from ..units import scaled_parameters
         info["scaled"] = scaled_parameters(model)
     x = fr_x[:nfr].copy()
     vv = fr_v[:nfr].copy()
-    return Result(
+    r = Result(
         t=fr_t[:nfr].copy(), x=x, v=vv, f=fr_f[:nfr].copy(), energy=energy, status=status,
         message=message, steps=int(ist[K.I_STEPS]), wall_time=wall, stepper="event", dt=None,
         t_final=t_final, x_final=x[-1].copy(), v_final=vv[-1].copy(), events=events,
         event_counts={k: int(n) for k, n in zip(EVENT_KINDS, counts)}, info=info)
+    r.status, r.message = ledger_verdict(r, tol)
+    return r
+
+
+#: n = 2 (exact modes): ledger error promised per unit of work, in units of eps.
+#: A step sums series whose terms stay below ~3 times the result (L h <= 1/2), so
+#: it rounds each state entry by a few ulps; the energy is quadratic in the state
+#: (2x the relative error); an event batch sets and re-rounds the same entries;
+#: the ledger's own sums over N granules round by ~N ulps. Errors add at worst
+#: linearly: 8 eps per step, batch and granule.
+EXACT_LEDGER_ULPS = 8.0
+
+
+def ledger_tolerance(packed: _Packed, e0: float, work: float) -> float:
+    """The largest energy-ledger error (relative to the initial energy ``e0``) the
+    event stepper promises for the run held in ``packed`` (kernel units);
+    ``work`` is the energy dissipated by friction over the run.
+
+    * n = 2 (exact modes): ``EXACT_LEDGER_ULPS * eps * (steps + batches + N + 1)``.
+    * other n: each step keeps the last two terms of every velocity's and
+      overlap's series below ``tol = rtol * |x| + atol``; with terms falling at
+      least by half, the truncation error is below ``2 tol``. That changes the
+      energy by at most ``max(2, n) rtol`` of it plus ``atol`` times the momenta
+      and forces, ``2 atol / V`` relative (V = sqrt(2 e0 / total mass), the speed
+      scale); an opening or closing leaves out an impulse below ``tol / 10``
+      (the contact switching rule) and its root is located to a few ulps,
+      counted as two steps; the friction work, integrated from the series of v,
+      is off by at most ``2 rtol`` of itself. At worst linearly accumulated:
+      ``2 [(steps + 2 batches + 1) (max(2, n) rtol + 2 atol / V) + 2 rtol work / e0]``.
+    """
+    ist = packed["ist"]
+    steps = int(ist[K.I_STEPS])
+    batches = int(ist[K.I_BATCHES])
+    N = packed["u"].size
+    if packed.linear:
+        return EXACT_LEDGER_ULPS * np.finfo(float).eps * (steps + batches + N + 1)
+    present = packed["present"] == 1
+    n_max = float(np.max(packed["nexp"][present])) if present.any() else 2.0
+    m_tot = float(np.sum(packed["mass"]))
+    V = math.sqrt(2.0 * e0 / m_tot) if e0 > 0.0 else math.inf
+    per_step = max(2.0, n_max) * packed.rtol + 2.0 * packed.atol / V
+    friction = 2.0 * packed.rtol * abs(work) / e0 if e0 > 0.0 else 0.0
+    return 2.0 * ((steps + 2 * batches + 1) * per_step + friction)
 
 
 def _overlap_limits(model: Model) -> np.ndarray:
@@ -448,6 +628,27 @@ def _grow(a: np.ndarray, n: int) -> np.ndarray:
     b = np.zeros((n,) + a.shape[1:], dtype=a.dtype)
     b[: a.shape[0]] = a
     return b
+
+
+def _out_of_steps_message(packed, model, scene, t, tscale) -> str:
+    need, pace = packed.projection
+    ist = packed["ist"]
+    msg = (f"stopped at t = {t * tscale:.6g} after {int(ist[K.I_STEPS])} Taylor steps: at the "
+           f"pace reached (mean step {pace * tscale:.3g}) t_end = {scene.run.t_end * tscale:g} needs "
+           f"~{need:.3g} more steps, more than run.max_steps = {scene.run.max_steps} allows")
+    # in kernel units: the fastest drag rate against the fastest contact rate
+    drag = float(np.max(packed["gamma"] / packed["mass"]))
+    present = packed["present"] == 1
+    kmax = float(np.max(packed["kc"][present])) if present.any() else 0.0
+    contact = math.sqrt(kmax / float(np.min(packed["mass"])))
+    if drag > 10.0 * contact:
+        msg += (f"; the scene is overdamped (drag time m/gamma = {tscale / drag:.3g}, far "
+                f"shorter than the contact time): the steps cannot exceed the drag time while "
+                f"the granules creep on a far slower time scale; the Verlet stepper integrates "
+                f"drag exactly, or shorten t_end")
+    else:
+        msg += "; raise run.max_steps or shorten t_end"
+    return msg
 
 
 def _status(code, scene, model, st, ist, t, nev):
@@ -488,6 +689,10 @@ def _status(code, scene, model, st, ist, t, nev):
             where = (f"contact {j - 1} reached an overlap equal to the sum of the radii of "
                      f"granules {j - 1} and {j} (their centres meet)")
         return Status.OVERLAP, f"{where} at t = {t:.12g} (exact event time); " + OVERLAP_ADVICE
+    if code == C_OUT_OF_STEPS:  # the message is set by the caller (_out_of_steps_message)
+        return Status.MAX_STEPS, "t_end out of reach within run.max_steps"
+    if code == C_INTERRUPTED:  # the message is set by the caller, who knows the signal
+        return Status.INTERRUPTED, "stopped by a signal"
     if code == K.C_MAX_STEPS:
         return Status.MAX_STEPS, (f"stopped after run.max_steps = {settings.max_steps} Taylor "
                                   f"steps at t = {t:.12g}; raise run.max_steps or loosen run.rtol")
@@ -505,7 +710,8 @@ def _status(code, scene, model, st, ist, t, nev):
 CODE_STATUS = {K.C_T_END: Status.T_END, K.C_SEPARATED: Status.SEPARATED,
                K.C_AT_REST: Status.AT_REST, K.C_MAX_EVENTS: Status.MAX_EVENTS,
                K.C_ZENO: Status.ZENO, K.C_MAX_STEPS: Status.MAX_STEPS,
-               K.C_NONFINITE: Status.NONFINITE, K.C_OVERLAP: Status.OVERLAP}
+               K.C_NONFINITE: Status.NONFINITE, K.C_OVERLAP: Status.OVERLAP,
+               C_INTERRUPTED: Status.INTERRUPTED}
 
 # The kernel's leading scalar arguments; the rest are arrays, passed to
 # _run_points as one tuple ``a`` (position in it: _A[name] - _NSCALAR).
@@ -540,25 +746,28 @@ def _extract(p, code, st, ist, fr_v, fr_e, ev_t, ev_k, ev_i, o_code, o_t, o_v, o
 
 @numba.njit(cache=True, error_model="numpy")
 def _run_points(law, coulomb, viscous, P, rtol, atol, a, fbuf, ftmp, ibuf, itmp, bbuf, btmp,
-                eta, eta_s, gamma, start, o_code, o_t, o_v, o_e, o_stop):
-    """Run the packed scene once per row p >= start of eta, eta_s, gamma (each (M, N)).
+                eta, eta_s, gamma, start, end, budget, o_code, o_t, o_v, o_e, o_stop):
+    """Run the packed scene once per row start <= p < end of eta, eta_s, gamma
+    (each (M, N)), each run with the kernel's work budget ``budget`` (0: none).
 
     ``a`` holds the kernel's array arguments, all views into the three flat
     buffers (float64, int64, int8), whose initial contents are ``*tmp``: each
     run starts from exactly the state the packing produced, with the point's
     friction and the friction-dependent entries (csl, slide, the n = 2 step
     cap) set by the same functions the packing uses. Results go to the o_
-    arrays (:func:`_extract`). Returns M, or the first point whose run filled a
-    buffer (C_BUFFER): its state is left in the arrays for the caller to grow
-    the buffers and resume, and the loop continues from the next point.
+    arrays (:func:`_extract`). Returns ``end``, or the first point whose run
+    filled a buffer (C_BUFFER) or spent its budget (C_YIELD): its state is left
+    in the arrays for the caller to resume, and the loop continues from the
+    next point.
     """
     law = literally(law)
     coulomb = literally(coulomb)
     viscous = literally(viscous)
-    for p in range(start, o_code.size):
+    for p in range(start, end):
         fbuf[:] = ftmp
         ibuf[:] = itmp
         bbuf[:] = btmp
+        a[_IST][K.I_BUDGET] = budget
         a[_ETA][:] = eta[p]
         a[_ETAS][:] = eta_s[p]
         a[_GAMMA][:] = gamma[p]
@@ -571,11 +780,11 @@ def _run_points(law, coulomb, viscous, P, rtol, atol, a, fbuf, ftmp, ibuf, itmp,
             a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27], a[28], a[29],
             a[30], a[31], a[32], a[33], a[34], a[35], a[36], a[37], a[38], a[39], a[40],
             a[41], a[42], a[43], a[44], a[45])
-        if code == K.C_BUFFER:
+        if code == K.C_BUFFER or code == K.C_YIELD:
             return p
         _extract(p, code, a[_ST], a[_IST], a[_FRV], a[_FRE], a[_EVT], a[_EVK], a[_EVI],
                  o_code, o_t, o_v, o_e, o_stop)
-    return o_code.size
+    return end
 
 
 @dataclasses.dataclass
@@ -591,6 +800,7 @@ class BatchOutput:
     t_stop: np.ndarray  #: (M, N) time of each granule's first stop event, NaN if none
     wall_time: float  #: seconds in the kernel (compiled loop and resumed runs)
     last_args: list  #: the kernel's arguments holding the last point's run
+    signal: int = 0  #: SIGINT/SIGTERM number if a stop request ended the batch early
 
 
 class EventBatch:
@@ -642,7 +852,7 @@ class EventBatch:
 
     def _call_args(self, eta, eta_s, gamma):
         M, N = eta.shape
-        return [*self._head, self._arrays, *self._flat, eta, eta_s, gamma, 0,
+        return [*self._head, self._arrays, *self._flat, eta, eta_s, gamma, 0, M, 0,
                 np.zeros(M, dtype=np.int64), np.zeros(M), np.zeros((M, N)), np.zeros((M, 3)),
                 np.zeros((M, N))]
 
@@ -658,33 +868,58 @@ class EventBatch:
             raise ValueError(f"eta, eta_static and gamma must all have shape {shape}")
         call = self._call_args(*arrs)
         M = shape[0]
-        i_start = _NSCALAR + 10
-        code, t, v, e, stop = call[-5:]
-        last = self.packed.args
-        wall = 0.0
-        while True:
-            t0 = time.perf_counter()
-            p = self._entry(*call)
-            wall += time.perf_counter() - t0
-            if p >= M:
-                break
-            # Point p filled a buffer: grow and resume it the ordinary way
-            # (_drive), on a copy of the argument list (the grown buffers
-            # replace the flat buffers' views there only).
-            grown = list(self.packed.args)
-            _grow_buffers(grown)
-            pk = dataclasses.replace(self.packed, args=grown)
-            c, w = _drive(pk)
-            wall += w
-            _extract(p, c, pk["st"], pk["ist"], pk["fr_v"], pk["fr_e"], pk["ev_t"], pk["ev_k"],
-                     pk["ev_i"], code, t, v, e, stop)
-            # the last point's run: in the grown buffers if it was this one, else
-            # (later points ran in the loop) in the flat buffers' views
-            last = grown if p == M - 1 else self.packed.args
-            call[i_start] = p + 1
+        i_start = _NSCALAR + 10  # positions of start, end, budget in the call
+        code, t, v, e, t_stop = call[-5:]
+        call[i_start + 2] = POINT_BUDGET
+        # The first call (16 points of at most POINT_BUDGET passes) runs without
+        # the signal handlers: a single collide() costs ~130 us, and installing
+        # and restoring them would add ~50 % to it. Chunks then last ~CHUNK_SECONDS.
+        p, chunk, wall, last, stop = self._chunk(call, 0, 16, None, self.packed.args)
+        if p < M and not stop.requested:
+            with stop_signals() as stop:
+                while p < M and not stop.requested:
+                    p, chunk, w, last, _ = self._chunk(call, p, chunk, stop, last)
+                    wall += w
+        if p < M:  # stopped by a signal: the points not run are marked so
+            code[p:] = C_INTERRUPTED
+            t[p:] = math.nan
         return BatchOutput(code=code, t_final=t, v_final=v, kinetic=e[:, 0], potential=e[:, 1],
-                           initial=self.packed.ke0 + e[:, 2], t_stop=stop, wall_time=wall,
-                           last_args=last)
+                           initial=self.packed.ke0 + e[:, 2], t_stop=t_stop, wall_time=wall,
+                           last_args=last, signal=stop.signum)
+
+    def _chunk(self, call, p, chunk, stop, last):
+        """Run points p .. p + chunk - 1 in the compiled loop, resuming from Python
+        a point that filled a buffer or spent its budget. Returns the next point,
+        the next chunk size, the wall time, the arguments of the last point and the
+        stop request (``stop``, or, when None, a request whose handlers were
+        installed only while a point was resumed)."""
+        M = len(call[-5])
+        i_start = _NSCALAR + 10  # positions of start, end, budget in the call
+        code, t, v, e, t_stop = call[-5:]
+        end = min(M, p + chunk)
+        call[i_start:i_start + 2] = [p, end]
+        t0 = time.perf_counter()
+        q = self._entry(*call)
+        wall = time.perf_counter() - t0
+        chunk = next_budget(chunk, wall * chunk / max(q - p, 1))
+        if q >= end:
+            return end, chunk, wall, last, stop or StopRequest()
+        # Point q filled a buffer or spent its budget: resume it the ordinary way
+        # (_drive), on a copy of the argument list (grown buffers replace the
+        # flat buffers' views there only).
+        grown = list(self.packed.args)
+        _grow_buffers(grown)
+        pk = dataclasses.replace(self.packed, args=grown)
+        if stop is None:
+            with stop_signals() as stop:
+                c, w = _drive(pk, stop)
+        else:
+            c, w = _drive(pk, stop)
+        _extract(q, c, pk["st"], pk["ist"], pk["fr_v"], pk["fr_e"], pk["ev_t"], pk["ev_k"],
+                 pk["ev_i"], code, t, v, e, t_stop)
+        # the last point's run: in the grown buffers if it was this one, else
+        # (later points ran in the loop) in the flat buffers' views
+        return q + 1, chunk, wall + w, (grown if q == M - 1 else self.packed.args), stop
 
     def result(self, out: BatchOutput) -> Result:
         """The full Result of the last point of ``out`` (as simulate_events returns it)."""
