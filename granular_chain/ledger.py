@@ -15,7 +15,7 @@ from .result import Result, Status
 __all__ = ["ledger_verdict"]
 
 
-def ledger_verdict(result: Result, tolerance: float) -> tuple[Status, str]:
+def ledger_verdict(result: Result, tolerance: float, what: str = "") -> tuple[Status, str]:
     """Status and message of ``result`` once its energy ledger is checked.
 
     Parameters
@@ -25,6 +25,8 @@ def ledger_verdict(result: Result, tolerance: float) -> tuple[Status, str]:
     tolerance : float
         Largest ``result.energy.balance_error`` (relative to the initial energy,
         dimensionless) the stepper promises for this run.
+    what : str, optional
+        What set the tolerance, for the message (default: the stepper's promise).
 
     Returns
     -------
@@ -39,7 +41,8 @@ def ledger_verdict(result: Result, tolerance: float) -> tuple[Status, str]:
     if err <= tolerance:  # (False for NaN)
         return result.status, result.message
     shown = "nan" if math.isnan(err) else f"{err:.3g}"
+    what = what or f"the {result.stepper} stepper's promised tolerance"
     return Status.INACCURATE, (
         f"{result.message}; but the energy ledger's error {shown} (relative to the initial "
-        f"energy) exceeds the {result.stepper} stepper's promised tolerance {tolerance:.3g} "
-        f"for this run, so the numbers are not trusted")
+        f"energy) exceeds {what} {tolerance:.3g} for this run, so the numbers are not "
+        f"trusted")

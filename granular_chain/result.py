@@ -102,6 +102,9 @@ class EnergyLedger:
     coulomb: np.ndarray
     viscous: np.ndarray
     initial: float
+    #: Largest relative |balance| over frames that were streamed to writers and not
+    #: kept here (None when every frame is kept); :attr:`balance_error` includes it.
+    streamed_error: Optional[float] = None
 
     @property
     def balance(self) -> np.ndarray:
@@ -111,10 +114,11 @@ class EnergyLedger:
     @property
     def balance_error(self) -> float:
         """Largest |balance| over the frames, relative to the initial energy."""
+        streamed = self.streamed_error or 0.0
         if self.kinetic.size == 0:
-            return 0.0
+            return streamed
         scale = self.initial if self.initial > 0 else 1.0
-        return float(np.max(np.abs(self.balance)) / scale)
+        return max(float(np.max(np.abs(self.balance)) / scale), streamed)
 
     def final(self) -> dict:
         return {

@@ -302,6 +302,11 @@ class Run(_Strict):
         return set(s) if isinstance(s, list) else ({s} - {"t_end"})
     stop_contact: Annotated[int, Int] = Field(0, ge=0, description="Contact index for stop: separation.")
     max_steps: Annotated[int, Int] = Field(2_000_000_000, ge=1, description="Refuse to take more steps.")
+    energy_tolerance: Optional[Positive] = Field(
+        None, description="Largest relative energy-ledger error a successful run may have: "
+        "a run that misses it ends with status inaccurate. Default: none for Verlet (its "
+        "O(dt^2) error is reported, not judged); the event stepper always holds its runs "
+        "to the tolerance it promises, and to this one too when given.")
     check_dt: Bool = Field(
         True, description="Refuse a Verlet dt above the stability limit of the stiffest "
         "contact (turn off only to study instability: the run then stops at the first "

@@ -15,6 +15,7 @@ import numpy as np
 from .budget import check_budget
 from .errors import SimulationError
 from .frames import Frame, FrameLog
+from .ledger import ledger_verdict
 from .model import Model
 from .result import Result
 from .scene import Scene
@@ -46,6 +47,9 @@ def preflight(scene: Scene) -> Model:
         Naming the field to change and the limit (for example run.dt).
     """
     model = check_budget(scene).model  # refuses, before allocating, what cannot run
+    if scene.run.stepper == "event":
+        from .steppers.events import check_exponents
+        check_exponents(model)
     if scene.run.stepper == "verlet" and scene.run.check_dt:
         dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
         check_dt(model, dt)
@@ -110,6 +114,9 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         warning = watch.warning
     if warning:
         result.info.setdefault("warnings", []).append(warning)
+    if scene.run.energy_tolerance is not None:
+        result.status, result.message = ledger_verdict(result, scene.run.energy_tolerance,
+                                                       "run.energy_tolerance")
     result.scene = scene
     return result
 

@@ -355,7 +355,8 @@ def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt,
     """The Result of a Verlet run from its frame log."""
     energy = EnergyLedger(
         kinetic=log.array("kinetic"), potential=log.array("potential"),
-        coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0)
+        coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0,
+        streamed_error=None if log.keep else log.max_balance_error)
     x, v = log.array("x"), log.array("v")
     counts_d = dict(zip(verlet.EVENT_KINDS, (int(n) for n in counts)))
     info = {"features": model.features.describe(), "granules": model.count,
@@ -363,7 +364,6 @@ def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt,
     if not log.keep:
         info["frames"] = log.count
         info["frames_kept"] = "first and last (the others were streamed to the writers)"
-        info["max_balance_error_relative"] = log.max_balance_error
     if model.units == "physical":
         info["scaled"] = scaled_parameters(model)
     t = log.array("t")
