@@ -197,11 +197,18 @@ def build_model(scene: Scene) -> Model:
     N = g.count
     mass = _per(g.mass, N)
     radius = _per(g.radius, N)
-    v0 = _per(g.velocity, N)
-    gaps = _per(g.gap, N - 1) if N > 1 else np.zeros(0)
-    x0 = np.empty(N)
-    x0[0] = radius[0]
-    x0[1:] = radius[0] + np.cumsum(radius[:-1] + radius[1:] + gaps)
+    if g.state is not None:  # positions and velocities from a file, exactly
+        if g._x0 is None:  # a stored scene read back: read the file now
+            from .initial_state import read_state
+            g._x0, g._v0 = read_state(g.state.file, g.state.frame, N)
+        x0, v0 = g._x0.copy(), g._v0.copy()
+        gaps = np.diff(x0) - radius[:-1] - radius[1:]
+    else:
+        v0 = _per(g.velocity, N)
+        gaps = _per(g.gap, N - 1) if N > 1 else np.zeros(0)
+        x0 = np.empty(N)
+        x0[0] = radius[0]
+        x0[1:] = radius[0] + np.cumsum(radius[:-1] + radius[1:] + gaps)
     d0 = np.ascontiguousarray(-gaps)
     n_exp = _per(scene.contacts.exponent, N - 1) if N > 1 else np.zeros(0)
     if scene.contacts.stiffness == "hertz":

@@ -87,5 +87,5 @@ def _from_summary(summary: dict, folder: Path):
         info=summary_info(summary))
     scene = None
     if "scene" in summary:
-        scene = scene_from_dict(summary["scene"], source=str(folder / "summary.json"))
+        scene = scene_from_dict(summary["scene"], source=str(folder / "summary.json"), stored=True)
     return result, scene

@@ -25,7 +25,9 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    PrivateAttr,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
@@ -197,6 +199,16 @@ class Material(_Strict):
         ..., description="Poisson ratio of each granule, in (-1, 0.5).")
 
 
+class InitialState(_Strict):
+    """Positions and velocities from a file (see :mod:`granular_chain.initial_state`)."""
+
+    file: str = Field(..., min_length=1, description="A run's trajectory.h5, an .npz with "
+                      "arrays x and v, or a .csv with columns x and v; a relative path is "
+                      "taken from the scene file's folder.")
+    frame: Annotated[int, Int] = Field(-1, description="Frame of a file with several "
+                                       "(Python indexing: -1 is the last).")
+
+
 class Granules(_Strict):
     """The N granules, indexed 0..N-1 from left to right."""
 
@@ -215,6 +227,37 @@ class Granules(_Strict):
     friction: Friction = Field(default_factory=Friction)
     material: Optional[Material] = Field(
         None, description="Elastic constants, used when contacts.stiffness is 'hertz'.")
+    state: Optional[InitialState] = Field(
+        None, description="Start from positions and velocities in a file (another run's "
+        "trajectory.h5, an .npz or a .csv) instead of granules.gap and granules.velocity; "
+        "walls keep their gaps to the end granules.")
+    _x0: Optional[np.ndarray] = PrivateAttr(None)
+    _v0: Optional[np.ndarray] = PrivateAttr(None)
+
+    @model_validator(mode="after")
+    def _state_from_file(self, info: ValidationInfo) -> "Granules":
+        """Read granules.state now, so that a bad file is refused with the scene."""
+        if self.state is None or (info.context or {}).get("stored"):
+            return self
+        given = {"gap", "velocity"} & self.model_fields_set
+        if given:
+            raise _FieldProblem("granules.state", f"sets positions and velocities: leave out "
+                                f"granules.{' and granules.'.join(sorted(given))}")
+        from .initial_state import StateFileError, read_state
+        try:
+            self._x0, self._v0 = read_state(self.state.file, self.state.frame, self.count)
+        except StateFileError as exc:
+            raise _FieldProblem("granules.state.file", str(exc)) from None
+        return self
+
+    def initial_gaps(self) -> np.ndarray:
+        """Gaps of the N-1 contacts at t = 0: from the state file's positions when
+        given, else granules.gap (0-d for one value)."""
+        n = self.count
+        if self._x0 is not None:
+            radius = np.broadcast_to(_array(self.radius, n), (n,))
+            return np.diff(self._x0) - radius[:-1] - radius[1:]
+        return _array(self.gap, n - 1)
 
     @model_validator(mode="after")
     def _draws_in_bounds(self) -> "Granules":
@@ -398,7 +441,7 @@ class Scene(_Strict):
         radius = _array(self.granules.radius, n)
         if n > 1:
             r_min = np.minimum(radius[:-1], radius[1:]) if radius.ndim else radius
-            gap = _array(self.granules.gap, n - 1)
+            gap = self.granules.initial_gaps()
             over = np.atleast_1d(-gap >= r_min)
             bad = np.flatnonzero(over)
             if bad.size:
@@ -573,12 +616,16 @@ def _problem(err) -> str:
     return f"{msg} (got {value!r})"
 
 
-def scene_from_dict(data: Any, source: str = "<scene>") -> Scene:
-    """Validate a mapping into a :class:`Scene`, raising :class:`SceneError` on any problem."""
+def scene_from_dict(data: Any, source: str = "<scene>", *, stored: bool = False) -> Scene:
+    """Validate a mapping into a :class:`Scene`, raising :class:`SceneError` on any problem.
+
+    ``stored``: the scene of a finished run, read back for its record; a state file
+    it started from is then not read again (it may have moved since).
+    """
     if not isinstance(data, dict):
         raise SceneError(source, "", f"a scene must be a mapping of fields, got {type(data).__name__}")
     try:
-        return Scene.model_validate(data)
+        return Scene.model_validate(data, context={"stored": stored})
     except ValidationError as exc:
         raise _explain(exc, source) from None
 
@@ -805,7 +852,19 @@ def load_scene(path: Union[str, Path], overrides: Optional[list[str]] = None) ->
         if not isinstance(data, dict):
             raise SceneError(str(path), "", "a scene must be a mapping of fields")
         apply_overrides(data, overrides, source=f"{path} (--set)")
+    _resolve_state_file(data, path.parent)
     return scene_from_dict(data, source=str(path))
+
+
+def _resolve_state_file(data, folder: Path) -> None:
+    """A relative granules.state.file is taken from the scene file's folder."""
+    granules = data.get("granules") if isinstance(data, dict) else None
+    state = granules.get("state") if isinstance(granules, dict) else None
+    if not isinstance(state, dict) or not isinstance(state.get("file"), str):
+        return
+    file = Path(state["file"])
+    if not file.is_absolute():
+        state["file"] = str(folder / file)
 
 
 def scene_json_schema() -> dict:

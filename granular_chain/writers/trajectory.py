@@ -330,7 +330,8 @@ def _scene_from_attr(h5, path):
 
     if "scene" not in h5.attrs:
         return None
-    return scene_from_dict(parse_yaml_value(str(h5.attrs["scene"])), source=str(path))
+    return scene_from_dict(parse_yaml_value(str(h5.attrs["scene"])), source=str(path),
+                           stored=True)
 
 
 def read_h5(path, summary: Optional[dict] = None):
