@@ -23,6 +23,7 @@ import json
 import os
 import sys
 from pathlib import Path
+from typing import Optional
 
 from .scene import SceneError, load_scene, scene_json_schema
 
@@ -53,6 +54,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--out", default=None,
                      help="output folder: a new one, or an earlier run folder with --overwrite "
                      "(default outputs/<scene name>, with a suffix for --set overrides)")
+    run.add_argument("--restart", default=None, metavar="RUN_DIR",
+                     help="continue an interrupted run from its checkpoint (bit for bit as "
+                     "if it had never stopped); the scene must be the run's own")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the earlier run in --out (atomically; only a folder the "
                      "engine wrote, holding nothing else)")
@@ -116,25 +120,29 @@ class _Attached:
     """The writers attached to one run: they write while it goes, so the frames
     are not kept in memory (the plots, drawn after the run, read them back)."""
 
-    def __init__(self, scene, model, folder: Path, echo: bool):
+    def __init__(self, scene, model, folder: Path, echo: bool, resume: Optional[dict] = None):
         from .writers.thermo import ThermoLog, thermo_every
 
         out, run = scene.output, scene.run
+        # a continued run reopens the files at the checkpoint's frame and thermo line
+        frames = int(resume["frames"]) if resume is not None else None
+        lines = int(resume["thermo_lines"]) if resume is not None else None
         self.writers = []
         if out.trajectory:
             from .writers.trajectory import TrajectoryFrames
-            self.writers.append(TrajectoryFrames(folder, scene, model.count))
+            self.writers.append(TrajectoryFrames(folder, scene, model.count, frames))
         if out.csv:
             from .writers.tables import EnergyTable
-            self.writers.append(EnergyTable(folder))
+            self.writers.append(EnergyTable(folder, frames))
         if out.vtk:
             from .writers.vtk import VTKFrames
-            self.writers.append(VTKFrames(folder, model))
+            self.writers.append(VTKFrames(folder, model, resume_frames=frames))
         path = folder / "thermo.csv"
         if run.stepper == "verlet":
             from .simulate import step_plan
             steps = step_plan(model, scene).steps
-            self.thermo = ThermoLog(model, thermo_every(steps, out.thermo), path, echo)
+            self.thermo = ThermoLog(model, thermo_every(steps, out.thermo), path, echo,
+                                    resume_lines=lines)
         else:  # the event stepper hands its frames on after the run: thin them in time
             self.thermo = ThermoLog(model, 0, path, echo, dt=run.t_end / 20)
             self.writers.append(self.thermo)
@@ -181,7 +189,8 @@ def _incomplete_reason(result, stop, missed: list[str]) -> str:
 
     parts = []
     if result.status == Status.INTERRUPTED:
-        parts.append(f"interrupted by {stop.name or 'a signal'} at t = {result.t_final:.6g}")
+        parts.append(f"interrupted by {stop.name or 'a signal'} at t = {result.t_final:.6g} "
+                     f"(continue it with --restart)")
     if missed:
         parts.append(f"interrupted while writing: {', '.join(missed)} not (fully) written")
     return "; ".join(parts)
@@ -209,18 +218,11 @@ def _output_folder(args, scene) -> tuple[Path, bool]:
 
 
 def cmd_run(args) -> int:
-    from .interrupts import stop_signals
-    from .result import Status
-    from .rundir import OutputError, RunFolder, check_out
-    from .simulate import SimulationError, preflight, simulate
+    from .rundir import OutputError
+    from .simulate import SimulationError
 
     try:
-        scene = load_scene(args.scene, args.overrides)
-        _apply_writer_flags(scene, args)
-        out, is_default = _output_folder(args, scene)
-        check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
-        model = preflight(scene)
-        _check_viz(scene)
+        scene, model, out, restart = _prepare_run(args)
     except (SceneError, OutputError) as exc:
         return _fail(str(exc))
     except SimulationError as exc:
@@ -231,29 +233,80 @@ def cmd_run(args) -> int:
     except KeyboardInterrupt:  # numba cannot be interrupted while it compiles
         print("granular-chain: interrupted while compiling; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED
-    echo = not args.quiet
+    return _execute(args, scene, model, out, restart)
+
+
+def _prepare_run(args):
+    """Scene, model, output folder and (for --restart) the run to continue; every
+    refusal happens here, before anything is written."""
+    from .rundir import check_out
+    from .simulate import preflight
+
+    scene = load_scene(args.scene, args.overrides)
+    _apply_writer_flags(scene, args)
+    restart = None
+    if args.restart:
+        from .restart import plan_restart
+        restart = plan_restart(args, scene)
+        out = restart.out
+    else:
+        out, is_default = _output_folder(args, scene)
+        check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
+        _note_killed_runs(out)
+    model = preflight(scene)
+    _check_viz(scene)
+    return scene, model, out, restart
+
+
+def _note_killed_runs(out: Path) -> None:
+    """Say where a killed run to the same folder left a checkpoint (it is kept)."""
+    from .rundir import stale_partials
+
+    parent = out.parent if str(out.parent) else Path(".")
+    for tmp in stale_partials(parent, out.name, recoverable=True):
+        print(f"granular-chain: note: a killed run to {out} left a checkpoint in {tmp}: "
+              f"continue it with --restart {tmp}, or remove it", file=sys.stderr)
+
+
+def _execute(args, scene, model, out: Path, restart) -> int:
+    """Run with the writers attached, then publish the run folder."""
+    from .checkpoint import CHECKPOINT, save_checkpoint
+    from .interrupts import stop_signals
+    from .result import Status
+    from .rundir import OutputError, RunFolder
+    from .simulate import simulate
+
     about = {"scene_name": scene.name, "scene_source": str(Path(args.scene).resolve()),
-             "overrides": list(args.overrides), "stepper": scene.run.stepper}
+             "overrides": list(args.overrides), "stepper": scene.run.stepper,
+             "destination": str(out.resolve())}
     with stop_signals() as stop:
         try:
             with RunFolder(out, about) as folder:
-                attached = _Attached(scene, model, folder.tmp, echo)
+                resume = restart.prepare(folder.tmp) if restart is not None else None
+                attached = _Attached(scene, model, folder.tmp, not args.quiet, resume)
                 try:
                     # thermo lines are the progress report; no bar beside them
-                    result = simulate(scene, progress=False, writers=attached.writers,
-                                      keep_frames=attached.keep_frames, thermo=attached.thermo)
+                    result = simulate(
+                        scene, progress=False, writers=attached.writers,
+                        keep_frames=attached.keep_frames, thermo=attached.thermo,
+                        checkpoint=lambda state: save_checkpoint(folder.tmp, state, scene),
+                        resume=resume)
                 except BaseException:
                     attached.abandon()
                     raise
                 attached.thermo.close()
-                if result.status == Status.INTERRUPTED and out.exists():
+                if result.status == Status.INTERRUPTED and out.exists() and restart is None:
                     # an earlier complete run is worth more than a partial one
                     print(f"granular-chain: interrupted at t = {result.t_final:.6g}; the "
                           f"earlier run in {out} is kept", file=sys.stderr)
                     return stop.exit_code
                 missed = _write_outputs(result, folder.tmp, scene, stop)
                 reason = _incomplete_reason(result, stop, missed)
+                if not reason:
+                    (folder.tmp / CHECKPOINT).unlink(missing_ok=True)
                 folder.publish(complete=not reason, reason=reason)
+                if restart is not None:
+                    restart.finish()
         except OutputError as exc:
             return _fail(str(exc))
         except KeyboardInterrupt:  # a second signal: nothing kept, nothing left behind

@@ -109,7 +109,7 @@ class FrameLog:
         self._hand_on(frame)
         self.count += 1
         self.max_balance_error = max(self.max_balance_error, frame.balance_error)
-        replace = not self.keep and self.count > 2  # keep the first, replace the latest
+        replace = not self.keep and len(self.kept["t"]) >= 2  # keep the first, replace the latest
         for name in self._FIELDS:
             if replace:
                 self.kept[name][-1] = getattr(frame, name)
@@ -127,15 +127,36 @@ class FrameLog:
     def _write_loop(self) -> None:
         while True:
             frame = self._queue.get()
-            if frame is None:
-                return
-            if self._error is not None:
-                continue  # drain: the caller raises the first error
             try:
-                for w in self.writers:
-                    w.write_frame(frame)
-            except BaseException as exc:  # handed to the caller's thread
-                self._error = exc
+                if frame is None:
+                    return
+                if self._error is not None:
+                    continue  # drain: the caller raises the first error
+                try:
+                    for w in self.writers:
+                        w.write_frame(frame)
+                except BaseException as exc:  # handed to the caller's thread
+                    self._error = exc
+            finally:
+                self._queue.task_done()
+
+    def sync(self) -> None:
+        """Every frame handed on is written and on disk (for a checkpoint): wait for
+        the writers' thread, then flush each writer that buffers."""
+        if self._queue is not None:
+            self._queue.join()
+        self._raise_error()
+        for w in self.writers:
+            flush = getattr(w, "flush", None)
+            if flush is not None:
+                flush()
+
+    def resume(self, count: int, max_error: float, first: Frame) -> None:
+        """Continue the log of a run restarted from a checkpoint: ``count`` frames were
+        written before it, ``first`` is the run's first frame."""
+        self.count, self.max_balance_error = int(count), float(max_error)
+        for name in self._FIELDS:
+            self.kept[name] = [getattr(first, name)]
 
     def _raise_error(self) -> None:
         if self._error is not None:

@@ -30,7 +30,7 @@ from typing import Iterable, Optional, Sequence
 import yaml
 
 __all__ = ["MARKER", "OutputError", "RunFolder", "default_out", "read_marker", "check_out",
-           "check_new_files", "adopt_files", "write_text_atomic"]
+           "check_new_files", "adopt_files", "write_text_atomic", "stale_partials"]
 
 MARKER = "run.json"
 ENGINE = "granular_chain"
@@ -253,11 +253,21 @@ def _remove_run(folder: Path) -> None:
 
 def _remove_stale_partials(parent: Path, name: str) -> None:
     """Remove temporary folders of earlier runs to ``name`` whose process is gone."""
-    for tmp in parent.glob(f".{name}.partial-*"):
+    for tmp in stale_partials(parent, name, recoverable=False):
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def stale_partials(parent: Path, name: str, recoverable: bool) -> list[Path]:
+    """Temporary folders of earlier runs to ``name`` whose process is gone: those with
+    a checkpoint (``recoverable``: ``--restart`` continues them) or those without."""
+    found = []
+    for tmp in sorted(parent.glob(f".{name}.partial-*")):
         marker = read_marker(tmp)
         if tmp.is_dir() and marker is not None and not marker.get("complete") \
-                and not _pid_alive(marker.get("pid")):
-            shutil.rmtree(tmp, ignore_errors=True)
+                and not _pid_alive(marker.get("pid")) \
+                and (tmp / "checkpoint.npz").is_file() == recoverable:
+            found.append(tmp)
+    return found
 
 
 def check_new_files(paths: Sequence[Path], what: str) -> None:

@@ -319,6 +319,10 @@ class Output(_Strict):
     plots: Bool = Field(
         False, description="Write PNG plots into plots/ (space-time velocity diagram, energy "
         "ledger, granule velocities, a rendered frame).")
+    checkpoint_every: Optional[Annotated[int, Int]] = Field(
+        None, ge=1, description="Steps between checkpoints (Verlet): granular-chain run "
+        "--restart RUN_DIR continues the run from the latest, bit for bit. A run also "
+        "checkpoints when it is interrupted.")
     thermo: Optional[int] = Field(
         None, ge=1, description="Steps between thermo lines (t, energies, dissipated energy, "
         "ledger error, closed contacts, sliding granules) printed by granular-chain run and "

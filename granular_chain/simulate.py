@@ -57,7 +57,8 @@ def preflight(scene: Scene) -> Model:
 
 
 def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
-             writers: Sequence = (), keep_frames: bool = True, thermo=None) -> Result:
+             writers: Sequence = (), keep_frames: bool = True, thermo=None,
+             checkpoint=None, resume: Optional[dict] = None) -> Result:
     """Run a scene and return its :class:`Result`.
 
     Parameters
@@ -76,6 +77,12 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         whose frames go to writers.
     thermo : ThermoLog, optional
         A thermo log (:mod:`granular_chain.writers.thermo`) on its own cadence.
+    checkpoint : callable(dict), optional
+        Given the run's state every ``output.checkpoint_every`` steps and when the run
+        is interrupted (Verlet; :mod:`granular_chain.checkpoint` saves it).
+    resume : dict, optional
+        A state given to ``checkpoint`` by a run of the same scene: this run goes
+        on from it, bit for bit as if it had never stopped (Verlet).
 
     Returns
     -------
@@ -97,6 +104,9 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     """
     model = preflight(scene)
     if scene.run.stepper == "event":
+        if resume is not None:
+            raise SimulationError("--restart: continuing an event-stepper run is not "
+                                  "supported; run it again")
         from .steppers.events import simulate_events
         result = simulate_events(scene, model)
         frames = FrameLog(writers)
@@ -108,7 +118,9 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         watch = NeighbourWatch(model.radius)
         log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
         try:
-            result = _simulate_verlet(scene, model, progress, log=log, thermo=thermo)
+            run = VerletRun(scene, model, progress, log=log, thermo=thermo, checkpoint=checkpoint,
+                            checkpoint_every=scene.output.checkpoint_every)
+            result = run.run(resume=resume)
         finally:
             log.finish()  # (the writers' thread is done before anyone closes their files)
         warning = watch.warning

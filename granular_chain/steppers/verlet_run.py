@@ -153,12 +153,20 @@ class VerletRun:
         Where the output frames go; default: all kept in memory, no writers.
     thermo : writer with ``every`` (steps) and ``write_frame(frame)``, optional
         Called on its own cadence (LAMMPS' ``thermo N``), besides the frames.
+    checkpoint : callable(dict), optional
+        Given the run's state (:meth:`checkpoint_state`) every ``checkpoint_every``
+        steps, once the writers have every frame so far on disk, and when the run
+        is interrupted; :meth:`run` with that state continues the run bit for bit.
+    checkpoint_every : int, optional
+        Steps between checkpoints (None: only at an interruption).
     """
 
     def __init__(self, scene, model: Model, progress: Optional[bool] = None,
-                 log: Optional[FrameLog] = None, thermo=None):
+                 log: Optional[FrameLog] = None, thermo=None, checkpoint=None,
+                 checkpoint_every: Optional[int] = None):
         settings = scene.run
         self.model, self.thermo = model, thermo
+        self.on_checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
         self.T = model.shortest_period()  # period or collision time of the stiffest contact
         self.log = log if log is not None else FrameLog()
         self.plan = plan = step_plan(model, scene)
@@ -212,12 +220,22 @@ class VerletRun:
         return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
                      self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
 
-    def run(self) -> Result:
-        """Step to t_end or a stop condition; the Result of the run."""
-        first = self.frame()
-        self.log.record(first)
-        if self.thermo is not None:
-            self.thermo.write_frame(first)
+    def run(self, resume: Optional[dict] = None) -> Result:
+        """Step to t_end or a stop condition; the Result of the run.
+
+        ``resume``: a state from :meth:`checkpoint_state` of the same scene; the
+        run goes on from it as if it had never stopped (its writers must have
+        been reopened at the checkpoint's frame and thermo line).
+        """
+        if resume is None:
+            first = self.frame()
+            self.log.record(first)
+            if self.thermo is not None:
+                self.thermo.write_frame(first)
+            self.next_frame = min(self.plan.every, self.n_total)
+            self.next_thermo = self.thermo.every if self.thermo is not None else math.inf
+        else:
+            self._restore(resume)
         start = time.perf_counter()  # stepping time: from the first frame on
         try:
             with stop_signals() as stop:
@@ -240,45 +258,108 @@ class VerletRun:
         every = self.plan.every
         thermo_every = self.thermo.every if self.thermo is not None else 0
         chunk = _Chunk(self.model.count)
-        next_frame = min(every, self.n_total)
-        next_thermo = thermo_every or math.inf
+        ck_every = self.checkpoint_every or 0
+        next_ck = self.steps + ck_every if ck_every else math.inf
         while self.steps < self.n_total or (self.last_dt and not self.short_taken):
             if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
                 self._begin_short_step()
-                next_frame = self.n_total
-            # A compiled call runs to the next frame or thermo line, or for about
-            # CHUNK_SECONDS, whichever is first.
-            target = min(next_frame, next_thermo, self.steps + chunk.steps)
+                self.next_frame = self.n_total
+            # A compiled call runs to the next frame, thermo line or checkpoint, or for
+            # about CHUNK_SECONDS, whichever is first.
+            target = min(self.next_frame, self.next_thermo, next_ck, self.steps + chunk.steps)
             code = self._advance(chunk, int(target) - self.steps)
-            at_frame = self.steps >= next_frame or code != verlet.RAN_CHUNK or stop.requested
-            at_thermo = self.steps >= next_thermo
-            if not (at_frame or at_thermo):
-                continue
-            code = self._synchronise(code)
-            ended, energies = self._check(code)
-            if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
-                                                  Status.UNSTABLE):
-                return ended
-            frame = self.frame(energies)
-            if self.thermo is not None and (at_thermo or ended is not None):
-                self.thermo.write_frame(frame)
-                next_thermo = self.steps + thermo_every if thermo_every else math.inf
-            if not at_frame:
-                continue
-            self.log.record(frame)
-            next_frame = min(self.steps + every, self.n_total)
-            if ended is not None:
-                return ended
-            if stop.requested:
-                return Status.INTERRUPTED, (
-                    f"interrupted by {stop.name} at t = {self.t_now:.12g} after {self.steps} "
-                    f"of {self.n_total} steps; the frames up to then are kept")
+            at_frame = self.steps >= self.next_frame or code != verlet.RAN_CHUNK or stop.requested
+            at_thermo = self.steps >= self.next_thermo
+            at_ck = self.steps >= next_ck
+            if at_frame or at_thermo:
+                code = self._synchronise(code)
+                ended, energies = self._check(code)
+                if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
+                                                      Status.UNSTABLE):
+                    return ended
+                frame = self.frame(energies)
+                if self.thermo is not None and (at_thermo or ended is not None):
+                    self.thermo.write_frame(frame)
+                    self.next_thermo = self.steps + thermo_every if thermo_every else math.inf
+                if at_frame:
+                    done = self._at_frame(frame, ended, stop)
+                    if done is not None:
+                        return done
+            if at_ck:
+                self._checkpoint()
+                next_ck = self.steps + ck_every
         if self.limited:
             return Status.MAX_STEPS, (
                 f"stopped after run.max_steps = {self.max_steps} steps at t = {self.t_now:.6g} "
                 f"before t_end = {self.t_end:g}; raise run.max_steps or run.dt")
         shortened = f" (the last one shortened to {self.last_dt:.6g})" if self.short_taken else ""
         return Status.T_END, f"reached t_end = {self.t_now:.12g} after {self.steps} steps{shortened}"
+
+    def _at_frame(self, frame: Frame, ended, stop):
+        """Record a frame; (status, message) when the run ends here, else None.
+
+        A stop request between two frames of the cadence checkpoints the run before
+        its extra frame is recorded, so a run continued from it writes the frames of
+        the cadence only, as the run that was never stopped.
+        """
+        interrupted = (Status.INTERRUPTED, (
+            f"interrupted by {stop.name} at t = {self.t_now:.12g} after {self.steps} of "
+            f"{self.n_total} steps; the frames up to then are kept"))
+        finished = self.steps >= self.n_total and (not self.last_dt or self.short_taken)
+        if finished:
+            stop = _NO_STOP  # every step is taken: the run ends as if no stop had come
+        if stop.requested and ended is None and self.steps < self.next_frame:
+            self._checkpoint()
+            self.log.record(frame)
+            return interrupted
+        self.log.record(frame)
+        self.next_frame = min(self.steps + self.plan.every, self.n_total)
+        if ended is not None:
+            return ended
+        if stop.requested:
+            self._checkpoint()
+            return interrupted
+        return None
+
+    _STATE_ARRAYS = ("u", "v", "f", "ledger", "counts")
+    _STATE_SCALARS = ("steps", "t_now", "dt_now", "short_taken", "n_total", "next_frame",
+                      "next_thermo", "e0")
+
+    def checkpoint_state(self) -> dict:
+        """Everything the run needs to go on from here: numpy arrays and numbers
+        (``numpy.savez`` keeps them exactly)."""
+        state = {name: getattr(self, name).copy() for name in self._STATE_ARRAYS}
+        state.update({name: np.float64(getattr(self, name)) if name in (
+            "t_now", "dt_now", "next_thermo", "e0") else np.int64(getattr(self, name))
+            for name in self._STATE_SCALARS})
+        state["active"] = self.args[_ARG["active"]].copy()
+        state["opening"] = np.int64(self.args[_ARG["opening"]])
+        state["frames"] = np.int64(self.log.count)
+        state["max_error"] = np.float64(self.log.max_balance_error)
+        state["thermo_lines"] = np.int64(getattr(self.thermo, "lines", 0))
+        for name in FrameLog._FIELDS:  # the run's first frame, kept by the Result
+            state[f"first_{name}"] = np.asarray(self.log.kept[name][0])
+        return state
+
+    def _restore(self, state: dict) -> None:
+        for name in self._STATE_ARRAYS:
+            getattr(self, name)[:] = state[name]
+        self.args[_ARG["active"]][:] = state["active"]
+        self.args[_ARG["opening"]] = int(state["opening"])
+        for name in self._STATE_SCALARS:
+            value = state[name]
+            setattr(self, name, bool(value) if name == "short_taken" else (
+                float(value) if name in ("t_now", "dt_now", "next_thermo", "e0") else int(value)))
+        first = Frame(*(np.asarray(state[f"first_{name}"]).item() if np.ndim(state[f"first_{name}"])
+                        == 0 else np.asarray(state[f"first_{name}"]) for name in FrameLog._FIELDS),
+                      initial=self.e0)
+        self.log.resume(int(state["frames"]), float(state["max_error"]), first)
+
+    def _checkpoint(self) -> None:
+        if self.on_checkpoint is None:
+            return
+        self.log.sync()  # the frames so far are on disk before the state that follows them
+        self.on_checkpoint(self.checkpoint_state())
 
     def _advance(self, chunk, n_steps: int) -> int:
         self.args[_ARG["n_steps"]] = n_steps
@@ -349,6 +430,13 @@ class VerletRun:
                 f"t = {self.t_now:.6g}: the integration is unstable; reduce run.dt (now "
                 f"{dt:g}; stiffest contact time {T:.4g})")), None
         return ended, (ke, pe)
+
+
+class _NoStop:
+    requested = False
+
+
+_NO_STOP = _NoStop()
 
 
 def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt, counts):

@@ -23,6 +23,7 @@ Read with ``numpy.genfromtxt(path, delimiter=",", names=True)`` or ``pandas.read
 from __future__ import annotations
 
 import csv
+import os
 from pathlib import Path
 from typing import Optional
 
@@ -45,17 +46,38 @@ def write_energy_csv(result, folder) -> Path:
     return path
 
 
+def keep_lines(path: Path, lines: int) -> None:
+    """Cut a text file the engine wrote to its first ``lines`` lines (a run restarted
+    from a checkpoint drops what came after it); written beside and renamed."""
+    path = Path(path)
+    with path.open("rb") as fh:  # bytes: the line ends stay as written (csv writes \r\n)
+        kept = [line for _, line in zip(range(lines), fh)]
+    if len(kept) < lines:
+        raise ValueError(f"{path} has {len(kept)} lines, fewer than the checkpoint's {lines}")
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_bytes(b"".join(kept))
+    os.replace(tmp, path)
+
+
 class EnergyTable:
     """``energy.csv`` written frame by frame as the run goes (a frame writer).
 
     The rows are those :func:`write_energy_csv` writes from a finished Result,
-    to the last bit.
+    to the last bit. ``resume_rows``: continue a file after its first rows (a
+    run restarted from a checkpoint).
     """
 
-    def __init__(self, folder):
+    def __init__(self, folder, resume_rows: Optional[int] = None):
         self.path = Path(folder) / "energy.csv"
+        if resume_rows is not None:
+            keep_lines(self.path, 1 + resume_rows)
+            self._fh = self.path.open("a")
+            return
         self._fh = self.path.open("w")
         self._fh.write(",".join(ENERGY_COLUMNS) + "\n")
+
+    def flush(self) -> None:
+        self._fh.flush()
 
     def write_frame(self, frame) -> None:
         balance = frame.kinetic + frame.potential + frame.coulomb + frame.viscous - frame.initial

@@ -52,15 +52,23 @@ class ThermoLog:
     """
 
     def __init__(self, model, every: int, path: Optional[Path] = None, echo: bool = False,
-                 dt: Optional[float] = None):
+                 dt: Optional[float] = None, resume_lines: Optional[int] = None):
         self.every, self.dt = every, dt
         self._model = model
         self._contact_reach = model.radius[:-1] + model.radius[1:]
         self._coulomb = model.eta_static > 0
         self._last_t = -math.inf
-        self._fh = open(path, "w", newline="") if path is not None else None
-        self._csv = csv.writer(self._fh) if self._fh is not None else None
-        if self._csv is not None:
+        self.lines = 0
+        self._fh = self._csv = None
+        if path is not None and resume_lines is not None:  # a run restarted from a checkpoint
+            from .tables import keep_lines
+            keep_lines(path, 1 + resume_lines)
+            self._fh = open(path, "a", newline="")
+            self._csv = csv.writer(self._fh)
+            self.lines = resume_lines
+        elif path is not None:
+            self._fh = open(path, "w", newline="")
+            self._csv = csv.writer(self._fh)
             self._csv.writerow(COLUMNS)
         self._echo = _Echo() if echo else None
 
@@ -82,6 +90,7 @@ class ThermoLog:
         if self.dt is not None and frame.t < self._last_t + self.dt:
             return
         self._last_t = frame.t
+        self.lines += 1
         row = self.row(frame)
         if self._csv is not None:
             self._csv.writerow([repr(float(v)) if isinstance(v, float) else v for v in row])

@@ -159,7 +159,8 @@ class TrajectoryWriter:
     frames and closes the file without a status (readers then refuse it).
     """
 
-    def __init__(self, folder, scene, count: int, *, chunk_frames: int = 64):
+    def __init__(self, folder, scene, count: int, *, chunk_frames: int = 64,
+                 resume_frames: Optional[int] = None):
         self.path = Path(folder) / "trajectory.h5"
         self.count = int(count)
         self.frames = 0
@@ -169,12 +170,36 @@ class TrajectoryWriter:
         self._xvf = {name: np.empty((self._rows, self.count)) for name in FRAME_FIELDS}
         self._led = {name: np.empty(self._rows) for name in LEDGER_FIELDS if name != "balance"}
         self._fill = 0
+        if resume_frames is not None:
+            self._h5 = h5py.File(self.path, "a")
+            self._reopen(int(resume_frames))
+            return
         self._h5 = h5py.File(self.path, "w", track_order=True)
         try:
             self._create(scene)
         except BaseException:
             self._h5.close()
             raise
+
+    def _reopen(self, frames: int) -> None:
+        """Continue a file from its first ``frames`` frames (a run restarted from a
+        checkpoint): later frames and what :meth:`close` wrote are dropped."""
+        h5 = self._h5
+        if h5["time"].shape[0] < frames:
+            h5.close()
+            raise ValueError(f"{self.path} holds {h5['time'].shape[0]} frames, fewer than the "
+                             f"checkpoint's {frames}")
+        for name in ("balance", "x_final", "v_final", "event_time", "event_kind", "event_index",
+                     "event"):
+            if name in h5:
+                del h5[name]
+        for name in ("status", "status_code", "success", "message", "steps", "wall_time_s",
+                     "t_final", "energy_initial", "event_counts", "info", "dt"):
+            if name in h5.attrs:
+                del h5.attrs[name]
+        for name in ("time", *FRAME_FIELDS, *(n for n in LEDGER_FIELDS if n != "balance")):
+            h5[name].resize(frames, axis=0)
+        self.frames = frames
 
     def _create(self, scene) -> None:
         h5, n = self._h5, self.count
@@ -231,9 +256,10 @@ class TrajectoryWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Write the buffered frames to the file."""
+        """Write the buffered frames to the file (and the file to disk)."""
         m, n0 = self._fill, self.frames
         if m == 0:
+            self._h5.flush()
             return
         for name, buf in [("time", self._t), *self._xvf.items(), *self._led.items()]:
             ds = self._h5[name]
@@ -241,6 +267,7 @@ class TrajectoryWriter:
             ds[n0:n0 + m] = buf[:m]
         self.frames += m
         self._fill = 0
+        self._h5.flush()
 
     def close(self, result) -> None:
         """Flush, then write the ledger balance, final state, events and status; close the file."""
@@ -292,9 +319,12 @@ class TrajectoryFrames:
         Number of granules N.
     """
 
-    def __init__(self, folder, scene, count: int):
-        self.writer = TrajectoryWriter(folder, scene, count)
+    def __init__(self, folder, scene, count: int, resume_frames: Optional[int] = None):
+        self.writer = TrajectoryWriter(folder, scene, count, resume_frames=resume_frames)
         self._open = True
+
+    def flush(self) -> None:
+        self.writer.flush()
 
     def write_frame(self, frame) -> None:
         self.writer.write_frame(frame.t, frame.x, frame.v, frame.f, frame.kinetic,

@@ -266,10 +266,32 @@ class VTKFrames:
         Radii, masses, contact constants and static friction of the chain.
     """
 
-    def __init__(self, folder, model, *, compression: Optional[str] = "zlib"):
+    def __init__(self, folder, model, *, compression: Optional[str] = "zlib",
+                 resume_frames: Optional[int] = None):
         self.series = VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
                                       model.eta_static, compression=compression)
         self._indexed = -1.0
+        if resume_frames is not None:
+            self._resume(Path(folder), int(resume_frames))
+
+    def _resume(self, folder: Path, frames: int) -> None:
+        """Continue after the first ``frames`` frames of the index (a run restarted from
+        a checkpoint); the frame files after them are removed (the engine wrote them)."""
+        from xml.etree import ElementTree
+
+        entries = [(float(d.get("timestep")), d.get("file")) for d in
+                   ElementTree.parse(folder / PVD_NAME).getroot().iter("DataSet")]
+        if len(entries) < frames:
+            raise ValueError(f"{folder / PVD_NAME} lists {len(entries)} frames, fewer than "
+                             f"the checkpoint's {frames}")
+        self.series._entries = entries[:frames]
+        for k, path in enumerate(sorted((folder / FRAME_DIR).glob("frame_*.vtp"))):
+            if k >= frames:
+                path.unlink()
+        self.series.write_index()
+
+    def flush(self) -> None:
+        self.series.write_index()
 
     def write_frame(self, frame) -> None:
         self.series.write_frame(frame.t, frame.x, frame.v, frame.f)

@@ -1,0 +1,80 @@
+"""``granular-chain run SCENE --restart RUN_DIR``: continue a run from its checkpoint.
+
+RUN_DIR is a run that did not complete: a run folder marked incomplete (interrupted by
+Ctrl-C or SIGTERM), or the hidden ``.NAME.partial-XXXX`` folder a killed run left (it
+keeps its checkpoint). The scene must be the run's own, to the last field. The run's
+files are copied into a new temporary folder, cut back to the checkpoint's frame (the
+frames written after it, and an interrupted run's extra last frame, are dropped) and the
+run goes on from the checkpoint: trajectory, tables, thermo log, VTK series and final
+state are those of the run that was never stopped, bit for bit. The continued run is
+published in RUN_DIR's place (a partial folder's destination), replacing it by a rename.
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from .checkpoint import CHECKPOINT, load_checkpoint, scene_difference
+from .rundir import MARKER, OutputError, _foreign_files, _pid_alive, check_out, read_marker
+
+__all__ = ["RestartPlan", "plan_restart"]
+
+
+@dataclass
+class RestartPlan:
+    """Where a continued run comes from and goes to."""
+
+    source: Path  #: the incomplete run folder (or partial folder) with the checkpoint
+    out: Path  #: where the continued run is published
+    partial: bool  #: the source is a killed run's hidden partial folder (removed after)
+
+    def prepare(self, tmp: Path) -> dict:
+        """Copy the source's files into the new run's folder ``tmp``; the checkpoint state."""
+        for path in sorted(self.source.rglob("*")):
+            rel = path.relative_to(self.source)
+            if path.is_dir() or rel.as_posix() == MARKER:
+                continue
+            (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(path, tmp / rel)
+        state, _ = load_checkpoint(tmp)
+        return state
+
+    def finish(self) -> None:
+        """After publishing: a partial folder continued elsewhere is no longer needed."""
+        if self.partial and self.source.exists():
+            shutil.rmtree(self.source, ignore_errors=True)
+
+
+def plan_restart(args, scene) -> RestartPlan:
+    """Check ``--restart RUN_DIR`` against the scene (raises :class:`OutputError`)."""
+    source = Path(args.restart)
+    if args.out:
+        raise OutputError("--restart: the run goes on in RUN_DIR's place; leave out --out")
+    marker = read_marker(source)
+    if marker is None:
+        raise OutputError(f"--restart {source}: not a run folder of the engine (no {MARKER})")
+    if marker.get("complete"):
+        raise OutputError(f"--restart {source}: the run is complete; nothing to continue")
+    partial = ".partial-" in source.name
+    if partial and _pid_alive(marker.get("pid")):
+        raise OutputError(f"--restart {source}: the run is still going (process {marker['pid']})")
+    if not (source / CHECKPOINT).is_file():
+        raise OutputError(f"--restart {source}: has no {CHECKPOINT} (a run writes one when "
+                          f"interrupted, and every output.checkpoint_every steps)")
+    _, stored = load_checkpoint(source)
+    differs = scene_difference(stored, scene.model_dump(mode="json"))
+    if differs:
+        raise OutputError(f"--restart {source}: the scene differs from the run's at {differs}; "
+                          f"a run continues only with its own scene")
+    if not partial:
+        foreign = _foreign_files(source, {**marker, "files": [*marker.get("files", []),
+                                                              CHECKPOINT]})
+        if foreign:
+            raise OutputError(f"--restart {source}: {foreign[0]} was not written by the engine; "
+                              f"move it out of the folder first")
+        return RestartPlan(source, source, False)
+    out = Path(marker.get("destination") or source.with_name(source.name.split(".partial-")[0][1:]))
+    check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=False)
+    return RestartPlan(source, out, True)

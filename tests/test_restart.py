@@ -1,0 +1,109 @@
+"""``--restart``: a run stopped by SIGINT, or killed outright, continued from its
+checkpoint equals the run that was never stopped, file for file and bit for bit."""
+
+import json
+import signal
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+
+from granular_chain.cli import main
+from granular_chain.rundir import read_marker
+
+SCENE = """\
+name: long
+granules:
+  count: 2000
+  radius: 2.0
+  velocity: {0: 1.0}
+  friction: {kinetic: 1.0e-4, static: 2.0e-4, viscous: 1.0e-4}
+contacts: {exponent: 2.5}
+walls: {right: {gap: 0.0, exponent: 2.5}}
+run: {t_end: 4000.0, dt: 0.0101}
+output: {every: 1000, thermo: 20000, checkpoint_every: 50000}
+"""
+
+
+def scene_file(folder, t_end=4000.0):
+    path = folder / ("s.yaml" if t_end == 4000.0 else "short.yaml")
+    path.write_text(SCENE.replace("t_end: 4000.0", f"t_end: {t_end}"))
+    return path
+
+
+def run_reference(folder):
+    assert main(["run", str(scene_file(folder)), "--out", str(folder / "A"), "--quiet",
+                 "--csv", "--vtk"]) == 0
+    return folder / "A"
+
+
+def start_and_stop(folder, signum, lines):
+    """Start the run in a child; after ``lines`` thermo lines send ``signum``."""
+    child = subprocess.Popen([sys.executable, "-m", "granular_chain.cli", "run",
+                              str(scene_file(folder)), "--out", "B", "--csv", "--vtk"],
+                             cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)
+    for _ in range(lines + 1):  # the header, then the lines
+        assert child.stdout.readline(), child.stderr.read()
+    child.send_signal(signum)
+    child.communicate(timeout=120)
+    return child.returncode
+
+
+def assert_same_run(a, b):
+    for name in ("energy.csv", "thermo.csv"):
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    with h5py.File(a / "trajectory.h5") as ha, h5py.File(b / "trajectory.h5") as hb:
+        for name in ("time", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous",
+                     "balance", "x_final", "v_final"):
+            assert np.array_equal(ha[name][...], hb[name][...]), name
+    sa, sb = (json.loads((p / "summary.json").read_text()) for p in (a, b))
+    for key in ("status", "t_final", "x_final", "v_final", "event_counts", "energy", "steps",
+                "frames"):
+        assert sa[key] == sb[key], key
+    assert sorted(p.name for p in (a / "vtk").iterdir()) == sorted(
+        p.name for p in (b / "vtk").iterdir())
+    assert read_marker(b)["complete"] is True and not (b / "checkpoint.npz").exists()
+
+
+def test_sigint_then_restart_equals_the_run_never_stopped(tmp_path):
+    ref = run_reference(tmp_path)
+    assert start_and_stop(tmp_path, signal.SIGINT, lines=3) == 130
+    marker = read_marker(tmp_path / "B")
+    assert marker["complete"] is False and "--restart" in marker["reason"]
+    assert "checkpoint.npz" in marker["files"]
+    assert main(["run", str(scene_file(tmp_path)), "--restart", str(tmp_path / "B"), "--quiet",
+                 "--csv", "--vtk"]) == 0
+    assert_same_run(ref, tmp_path / "B")
+
+
+def test_killed_run_continues_from_its_last_checkpoint(tmp_path, capsys):
+    ref = run_reference(tmp_path)
+    assert start_and_stop(tmp_path, signal.SIGKILL, lines=4) == -signal.SIGKILL
+    partial = [p for p in tmp_path.iterdir() if p.name.startswith(".B.partial-")]
+    assert len(partial) == 1 and (partial[0] / "checkpoint.npz").is_file()
+    # a new run to B says where the checkpoint is, and keeps it
+    capsys.readouterr()
+    assert main(["run", str(scene_file(tmp_path, 1.0)), "--out", str(tmp_path / "B"),
+                 "--quiet"]) == 0
+    assert f"--restart {partial[0]}" in capsys.readouterr().err and partial[0].exists()
+    # continued in its destination, B, which now holds that other run: --overwrite
+    assert main(["run", str(scene_file(tmp_path)), "--restart", str(partial[0]), "--quiet",
+                 "--csv", "--vtk"]) == 2
+    assert main(["run", str(scene_file(tmp_path)), "--restart", str(partial[0]), "--quiet",
+                 "--csv", "--vtk", "--overwrite"]) == 0
+    assert_same_run(ref, tmp_path / "B")
+    assert not partial[0].exists()
+
+
+def test_restart_refusals(tmp_path, capsys):
+    ref = run_reference(tmp_path)
+    scene = str(scene_file(tmp_path))
+    assert main(["run", scene, "--restart", str(ref), "--quiet"]) == 2  # complete
+    assert main(["run", scene, "--restart", str(tmp_path), "--quiet"]) == 2  # not a run
+    assert main(["run", scene, "--restart", str(ref), "--out", "x", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and "is complete" in err[0] and "not a run folder" in err[1]
+    assert "leave out --out" in err[2]
