@@ -296,9 +296,12 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                     raise
                 attached.thermo.close()
                 if result.status == Status.INTERRUPTED and out.exists() and restart is None:
-                    # an earlier complete run is worth more than a partial one
+                    # the earlier run stays; this one is kept aside, to be continued
+                    _write_outputs(result, folder.tmp, scene, stop)
+                    kept = folder.keep(reason=_incomplete_reason(result, stop, []))
                     print(f"granular-chain: interrupted at t = {result.t_final:.6g}; the "
-                          f"earlier run in {out} is kept", file=sys.stderr)
+                          f"earlier run in {out} is kept; this one is in {kept}: continue "
+                          f"it with --restart {kept}", file=sys.stderr)
                     return stop.exit_code
                 missed = _write_outputs(result, folder.tmp, scene, stop)
                 reason = _incomplete_reason(result, stop, missed)
@@ -313,8 +316,8 @@ def _execute(args, scene, model, out: Path, restart) -> int:
             print(f"granular-chain: interrupted; nothing written to {out}", file=sys.stderr)
             return stop.exit_code or EXIT_INTERRUPTED
     _report(args, result, out, reason)
-    if stop.requested:
-        return stop.exit_code
+    if reason:  # stopped by a signal: the run folder is marked incomplete
+        return stop.exit_code or EXIT_INTERRUPTED
     return EXIT_OK if result.success else EXIT_RUN_FAILED
 
 
@@ -346,7 +349,10 @@ def cmd_plot(args) -> int:
     from .writers.plots import PLOT_DIR, write_plots
     from .writers.trajectory import read_trajectory
 
-    result, scene = read_trajectory(run_dir)
+    try:
+        result, scene = read_trajectory(run_dir)
+    except (OSError, ValueError) as exc:
+        return _fail(f"{run_dir}/trajectory.h5: cannot be read ({exc})")
     count = result.x.shape[1]
     if granules is not None and any(not 0 <= g < count for g in granules):
         return _fail(f"--granules: indices must be in 0..{count - 1}, got {args.granules}")
@@ -358,9 +364,12 @@ def cmd_plot(args) -> int:
         check_new_files([folder / subdir / n for n in names], "--out" if args.out else "RUN_DIR")
     except OutputError as exc:
         return _fail(str(exc))
-    paths = write_plots(result, folder, scene, granules=granules, frame_time=args.frame_time,
-                        render=args.render, subdir=subdir)
-    adopt_files(run_dir, [p for p in paths if run_dir.resolve() in Path(p).resolve().parents])
+    try:
+        paths = write_plots(result, folder, scene, granules=granules,
+                            frame_time=args.frame_time, render=args.render, subdir=subdir)
+    finally:  # the PNGs written so far, even if stopped, join the run's marker
+        written = [folder / subdir / n for n in names if (folder / subdir / n).is_file()]
+        adopt_files(run_dir, [p for p in written if run_dir.resolve() in p.resolve().parents])
     for path in paths:
         print(path)
     return EXIT_OK

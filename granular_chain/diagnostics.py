@@ -535,7 +535,12 @@ def run_diagnose_command(args) -> int:
                       file=sys.stderr)
                 return 2
             from .writers.trajectory import read_trajectory
-            result, scene = read_trajectory(target)
+            try:
+                result, scene = read_trajectory(target)
+            except (OSError, ValueError) as exc:
+                print(f"granular-chain: {target}/trajectory.h5: cannot be read ({exc})",
+                      file=sys.stderr)
+                return 2
             if args.overrides:
                 print("granular-chain: --set applies to scene files, not run folders",
                       file=sys.stderr)

@@ -32,13 +32,16 @@ class RestartPlan:
 
     def prepare(self, tmp: Path) -> dict:
         """Copy the source's files into the new run's folder ``tmp``; the checkpoint state."""
-        for path in sorted(self.source.rglob("*")):
-            rel = path.relative_to(self.source)
-            if path.is_dir() or rel.as_posix() == MARKER:
-                continue
-            (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(path, tmp / rel)
-        state, _ = load_checkpoint(tmp)
+        try:
+            for path in sorted(self.source.rglob("*")):
+                rel = path.relative_to(self.source)
+                if path.is_dir() or rel.as_posix() == MARKER:
+                    continue
+                (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(path, tmp / rel)
+            state, _ = load_checkpoint(tmp)
+        except (OSError, ValueError) as exc:
+            raise OutputError(f"--restart {self.source}: cannot be read ({exc})") from None
         return state
 
     def finish(self) -> None:
@@ -50,6 +53,10 @@ class RestartPlan:
 def plan_restart(args, scene) -> RestartPlan:
     """Check ``--restart RUN_DIR`` against the scene (raises :class:`OutputError`)."""
     source = Path(args.restart)
+    cwd = Path.cwd().resolve()
+    if source.resolve() == cwd or source.resolve() in cwd.parents:
+        raise OutputError(f"--restart {source}: is the current folder or contains it; run "
+                          f"from outside the run folder")
     if args.out:
         raise OutputError("--restart: the run goes on in RUN_DIR's place; leave out --out")
     marker = read_marker(source)
@@ -66,8 +73,13 @@ def plan_restart(args, scene) -> RestartPlan:
     _, stored = load_checkpoint(source)
     differs = scene_difference(stored, scene.model_dump(mode="json"))
     if differs:
-        raise OutputError(f"--restart {source}: the scene differs from the run's at {differs}; "
-                          f"a run continues only with its own scene")
+        hint = (" (repeat the run's output flags: --csv, --vtk, --plots, --no-trajectory)"
+                if differs.startswith("output.") else "")
+        raise OutputError(f"--restart {source}: the scene differs from the run's at {differs}"
+                          f"{hint}; a run continues only with its own scene")
+    if scene.output.plots and not scene.output.trajectory:
+        raise OutputError(f"--restart {source}: the plots of a continued run are drawn from "
+                          f"its trajectory.h5; this run writes none (output.trajectory: false)")
     if not partial:
         foreign = _foreign_files(source, {**marker, "files": [*marker.get("files", []),
                                                               CHECKPOINT]})

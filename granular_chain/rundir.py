@@ -169,11 +169,13 @@ class RunFolder:
         self.tmp: Optional[Path] = None
         self.published = False
         self._made: list[Path] = []
+        self._replaces = False
 
     def __enter__(self) -> "RunFolder":
         parent = self.out.parent
         # the folders this run creates, deepest first: removed again if it fails
         self._made = [p for p in [parent, *parent.parents] if not p.exists()]
+        self._replaces = read_marker(self.out) is not None  # an earlier run, accepted
         try:
             parent.mkdir(parents=True, exist_ok=True)
             _remove_stale_partials(parent, self.out.name)
@@ -204,23 +206,41 @@ class RunFolder:
         tmp.write_text(json.dumps(data, indent=2) + "\n")
         os.replace(tmp, folder / MARKER)
 
+    def keep(self, *, reason: str) -> Path:
+        """Leave the run where it is (its hidden temporary folder), marked incomplete:
+        an interrupted run that would have replaced an earlier one, which stays."""
+        files = [f for f in _files_below(self.tmp) if f != MARKER]
+        self._write_marker(self.tmp, complete=False, reason=reason, files=files)
+        self.published = True  # (not removed on exit)
+        return self.tmp
+
     def publish(self, *, complete: bool, reason: str = "") -> None:
         """Mark the run (complete or not, and why) and rename it onto ``out``.
 
-        An earlier run at ``out`` (accepted by :func:`check_out`) is moved aside
-        first and removed file by file after the rename, only its marker's files.
+        An earlier run at ``out`` (accepted by :func:`check_out` when the run
+        started, and still an engine run folder holding nothing else) is moved
+        aside first and removed file by file after the rename, only its marker's
+        files. Anything else found at ``out`` now (it appeared while the run went)
+        is left alone: the run is published beside it, and OutputError says where.
         """
         files = [f for f in _files_below(self.tmp) if f != MARKER]
         self._write_marker(self.tmp, complete=complete, reason=reason, files=files)
         umask = os.umask(0)  # mkdtemp made the folder 0700; give it mkdir's mode
         os.umask(umask)
         os.chmod(self.tmp, 0o777 & ~umask)
-        if not self.out.exists():
+        if not self.out.exists() and not self.out.is_symlink():
             self.tmp.rename(self.out)
             self.published = True
             return
-        old = self.out.with_name(f".{self.out.name}.old-{os.getpid()}")
-        self.out.rename(old)
+        problem = self._replace_problem()
+        if problem:
+            beside = Path(tempfile.mkdtemp(prefix=f"{self.out.name}.run-", dir=self.out.parent))
+            self.tmp.rename(beside)  # (onto the empty folder mkdtemp made)
+            self.published = True
+            raise OutputError(f"--out {self.out}: {problem}; it was left alone and the run "
+                              f"was written to {beside}")
+        old = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.old-", dir=self.out.parent))
+        self.out.rename(old)  # (onto the empty folder mkdtemp made)
         try:
             self.tmp.rename(self.out)
         except BaseException:
@@ -229,12 +249,23 @@ class RunFolder:
         self.published = True
         _remove_run(old)
 
+    def _replace_problem(self) -> str:
+        """Why ``out``, found at publication, must not be replaced ('' if it may)."""
+        if not self._replaces:
+            return "appeared while the run went"
+        marker = read_marker(self.out)
+        if marker is None or self.out.is_symlink():
+            return "is no longer a run folder of the engine"
+        foreign = _foreign_files(self.out, marker)
+        if foreign:
+            return f"{foreign[0]} was put there while the run went"
+        return ""
+
 
 def _remove_run(folder: Path) -> None:
     """Remove a run folder the engine wrote: its marker's files, then empty folders.
 
-    Anything else found there (a file added while the run was going) is left
-    in place, and the folder with it.
+    Anything else found there is left in place, and the folder with it.
     """
     marker = read_marker(folder)
     if marker is None:
@@ -244,7 +275,7 @@ def _remove_run(folder: Path) -> None:
         if target.is_file() or target.is_symlink():
             target.unlink()
     (folder / MARKER).unlink(missing_ok=True)
-    for root, dirs, _ in sorted(os.walk(folder, topdown=False), reverse=False):
+    for root, _, _ in os.walk(folder, topdown=False):  # children before their parents
         try:
             os.rmdir(root)
         except OSError:

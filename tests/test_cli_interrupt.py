@@ -93,12 +93,17 @@ def test_interrupted_rerun_keeps_the_previous_output(tmp_path):
     try:
         _wait_until_stepping(proc, tmp_path, out.name)
         proc.send_signal(signal.SIGINT)
-        proc.communicate(timeout=60)
+        _, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
     assert proc.returncode == 130
+    assert "--restart" in err and "earlier run" in err
     assert (out / "summary.json").read_text() == before
     assert json.loads((out / "run.json").read_text())["complete"] is True
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["kept"]
+    # the interrupted run is kept aside, marked incomplete, to be continued
+    aside = [p for p in tmp_path.iterdir() if p.name != "kept"]
+    assert len(aside) == 1 and aside[0].name.startswith(".kept.partial-")
+    marker = json.loads((aside[0] / "run.json").read_text())
+    assert marker["complete"] is False and (aside[0] / "checkpoint.npz").is_file()

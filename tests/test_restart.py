@@ -107,3 +107,59 @@ def test_restart_refusals(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and "is complete" in err[0] and "not a run folder" in err[1]
     assert "leave out --out" in err[2]
+
+
+def rest_scene():
+    import granular_chain as gc
+    return gc.load_scene(__import__("pathlib").Path(__file__).parents[1] / "scenarios" /
+                         "chain_kinetic.yaml", ["output.every=7"])
+
+
+def test_rest_stop_does_not_depend_on_where_compiled_calls_end(monkeypatch):
+    """A Coulomb run stopping at rest stops at the same step whatever the thermo,
+    checkpoint and wall-clock boundaries of the compiled calls."""
+    import granular_chain as gc
+    from granular_chain.model import build_model
+    from granular_chain.steppers import verlet_run
+    from granular_chain.writers.thermo import ThermoLog
+
+    base = gc.simulate(rest_scene(), progress=False)
+    assert base.status == gc.Status.AT_REST
+    rest = base.steps
+    runs = []
+    scene = rest_scene()
+    runs.append(verlet_run.VerletRun(scene, build_model(scene), False,
+                                     thermo=ThermoLog(build_model(scene), rest)).run())
+    scene = rest_scene()
+    scene.output.checkpoint_every = rest
+    runs.append(verlet_run.VerletRun(scene, build_model(scene), False, checkpoint=lambda s: None,
+                                     checkpoint_every=rest).run())
+    monkeypatch.setattr(verlet_run, "CHUNK_SECONDS", 1e-5)  # calls of a few steps
+    runs.append(gc.simulate(rest_scene(), progress=False))
+    for r in runs:
+        assert r.status == gc.Status.AT_REST and r.steps == rest
+        assert np.array_equal(r.x_final, base.x_final) and r.event_counts == base.event_counts
+
+
+def test_no_checkpoint_once_every_step_is_taken():
+    import granular_chain as gc
+    from granular_chain.model import build_model
+    from granular_chain.steppers.verlet_run import VerletRun
+
+    scene = gc.scene_from_dict({"granules": {"count": 5, "velocity": {0: 1.0}},
+                                "run": {"t_end": 4.0, "dt": 0.01}})
+    states = []
+    whole = VerletRun(scene, build_model(scene), False, checkpoint=states.append,
+                      checkpoint_every=100).run()
+    assert [int(s["steps"]) for s in states] == [100, 200, 300]  # not at 400, the end
+    resumed = VerletRun(scene, build_model(scene), False).run(resume=states[-1])
+    assert resumed.t_final == whole.t_final == 4.0
+    assert np.array_equal(resumed.x_final, whole.x_final)
+
+
+def test_restart_from_inside_the_run_folder_is_refused(tmp_path, monkeypatch, capsys):
+    run_dir = tmp_path / "R"
+    run_dir.mkdir()
+    monkeypatch.chdir(run_dir)
+    assert main(["run", str(scene_file(tmp_path)), "--restart", ".", "--quiet"]) == 2
+    assert "current folder" in capsys.readouterr().err

@@ -265,3 +265,28 @@ def test_failed_run_removes_the_folders_it_created(work, monkeypatch):
     with pytest.raises(OSError):
         run("--out", "deep/er/run")
     assert snapshot(work) == before and not (work / "deep").exists()
+
+
+def test_replacing_a_run_with_subfolders_leaves_no_debris(work):
+    assert run("--out", "r", "--vtk") == 0
+    assert run("--out", "r", "--vtk", "--overwrite") == 0
+    assert run("--out", "r", "--vtk", "--overwrite") == 0
+    assert sorted(p.name for p in work.iterdir()) == ["r", "scene.yaml"]
+
+
+def test_a_folder_that_appears_during_the_run_is_left_alone(work, monkeypatch, capsys):
+    import granular_chain.cli as cli
+
+    original = cli._write_outputs
+
+    def user_mkdir_meanwhile(*args, **kwargs):
+        with_sentinel(work / "r")
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(cli, "_write_outputs", user_mkdir_meanwhile)
+    assert run("--out", "r") == 2
+    err = capsys.readouterr().err
+    assert "appeared while the run went" in err and "my_thesis.tex" not in err
+    assert sorted(p.name for p in (work / "r").iterdir()) == ["my_thesis.tex"]
+    beside = [p for p in work.iterdir() if p.name.startswith("r.run-")]
+    assert len(beside) == 1 and read_marker(beside[0])["complete"] is True

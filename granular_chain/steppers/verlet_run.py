@@ -167,6 +167,7 @@ class VerletRun:
         settings = scene.run
         self.model, self.thermo = model, thermo
         self.on_checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
+        self.next_ck = None
         self.T = model.shortest_period()  # period or collision time of the stiffest contact
         self.log = log if log is not None else FrameLog()
         self.plan = plan = step_plan(model, scene)
@@ -235,6 +236,9 @@ class VerletRun:
             self.next_frame = min(self.plan.every, self.n_total)
             self.next_thermo = self.thermo.every if self.thermo is not None else math.inf
         else:
+            # the frames before the checkpoint are in the writers' files, not here: the
+            # Result keeps the first and the latest, and the ledger error over them all
+            self.log.keep = False
             self._restore(resume)
         start = time.perf_counter()  # stepping time: from the first frame on
         try:
@@ -259,20 +263,31 @@ class VerletRun:
         thermo_every = self.thermo.every if self.thermo is not None else 0
         chunk = _Chunk(self.model.count)
         ck_every = self.checkpoint_every or 0
-        next_ck = self.steps + ck_every if ck_every else math.inf
+        if not ck_every:
+            self.next_ck = math.inf
+        elif getattr(self, "next_ck", None) is None:
+            self.next_ck = self.steps + ck_every
+        # The kernel reads rest off a kick only after a call's first step: a Coulomb
+        # run that stops at rest is tested here at the end of every call, wherever
+        # calls end, so its stop step does not depend on them.
+        rest_watch = self.merged and bool(self.stop_mode & verlet.STOP_ON_REST)
         while self.steps < self.n_total or (self.last_dt and not self.short_taken):
             if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
                 self._begin_short_step()
                 self.next_frame = self.n_total
             # A compiled call runs to the next frame, thermo line or checkpoint, or for
             # about CHUNK_SECONDS, whichever is first.
-            target = min(self.next_frame, self.next_thermo, next_ck, self.steps + chunk.steps)
+            target = min(self.next_frame, self.next_thermo, self.next_ck,
+                         self.steps + chunk.steps)
             code = self._advance(chunk, int(target) - self.steps)
+            if rest_watch:
+                code = self._synchronise(code)
             at_frame = self.steps >= self.next_frame or code != verlet.RAN_CHUNK or stop.requested
             at_thermo = self.steps >= self.next_thermo
-            at_ck = self.steps >= next_ck
+            at_ck = self.steps >= self.next_ck
             if at_frame or at_thermo:
-                code = self._synchronise(code)
+                if not rest_watch:
+                    code = self._synchronise(code)
                 ended, energies = self._check(code)
                 if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
                                                       Status.UNSTABLE):
@@ -285,9 +300,9 @@ class VerletRun:
                     done = self._at_frame(frame, ended, stop)
                     if done is not None:
                         return done
-            if at_ck:
+            if at_ck:  # (the cadence moves on first: the state saved holds the next one)
+                self.next_ck = self.steps + ck_every
                 self._checkpoint()
-                next_ck = self.steps + ck_every
         if self.limited:
             return Status.MAX_STEPS, (
                 f"stopped after run.max_steps = {self.max_steps} steps at t = {self.t_now:.6g} "
@@ -305,8 +320,7 @@ class VerletRun:
         interrupted = (Status.INTERRUPTED, (
             f"interrupted by {stop.name} at t = {self.t_now:.12g} after {self.steps} of "
             f"{self.n_total} steps; the frames up to then are kept"))
-        finished = self.steps >= self.n_total and (not self.last_dt or self.short_taken)
-        if finished:
+        if self._finished():
             stop = _NO_STOP  # every step is taken: the run ends as if no stop had come
         if stop.requested and ended is None and self.steps < self.next_frame:
             self._checkpoint()
@@ -314,6 +328,9 @@ class VerletRun:
             return interrupted
         self.log.record(frame)
         self.next_frame = min(self.steps + self.plan.every, self.n_total)
+        if self._finished() and ended is None and self.thermo is not None \
+                and self.thermo.last_step != self.steps:
+            self.thermo.write_frame(frame)  # the thermo log ends at the run's end
         if ended is not None:
             return ended
         if stop.requested:
@@ -323,14 +340,14 @@ class VerletRun:
 
     _STATE_ARRAYS = ("u", "v", "f", "ledger", "counts")
     _STATE_SCALARS = ("steps", "t_now", "dt_now", "short_taken", "n_total", "next_frame",
-                      "next_thermo", "e0")
+                      "next_thermo", "next_ck", "e0")
 
     def checkpoint_state(self) -> dict:
         """Everything the run needs to go on from here: numpy arrays and numbers
         (``numpy.savez`` keeps them exactly)."""
         state = {name: getattr(self, name).copy() for name in self._STATE_ARRAYS}
         state.update({name: np.float64(getattr(self, name)) if name in (
-            "t_now", "dt_now", "next_thermo", "e0") else np.int64(getattr(self, name))
+            "t_now", "dt_now", "next_thermo", "next_ck", "e0") else np.int64(getattr(self, name))
             for name in self._STATE_SCALARS})
         state["active"] = self.args[_ARG["active"]].copy()
         state["opening"] = np.int64(self.args[_ARG["opening"]])
@@ -349,15 +366,20 @@ class VerletRun:
         for name in self._STATE_SCALARS:
             value = state[name]
             setattr(self, name, bool(value) if name == "short_taken" else (
-                float(value) if name in ("t_now", "dt_now", "next_thermo", "e0") else int(value)))
+                float(value) if name in ("t_now", "dt_now", "next_thermo", "next_ck", "e0")
+                else int(value)))
         first = Frame(*(np.asarray(state[f"first_{name}"]).item() if np.ndim(state[f"first_{name}"])
                         == 0 else np.asarray(state[f"first_{name}"]) for name in FrameLog._FIELDS),
                       initial=self.e0)
         self.log.resume(int(state["frames"]), float(state["max_error"]), first)
 
+    def _finished(self) -> bool:
+        """Every step is taken (the run ends here whatever else happens)."""
+        return self.steps >= self.n_total and (not self.last_dt or self.short_taken)
+
     def _checkpoint(self) -> None:
-        if self.on_checkpoint is None:
-            return
+        if self.on_checkpoint is None or self._finished():
+            return  # (a finished run has nothing to continue)
         self.log.sync()  # the frames so far are on disk before the state that follows them
         self.on_checkpoint(self.checkpoint_state())
 

@@ -129,7 +129,10 @@ def run_export_command(args) -> int:
     out = Path(args.out) if args.out else run_dir / "export" / fmt
     if args.out and out.exists():
         return fail(f"--out {out}: exists; name a new folder")
-    result = read_run(run_dir)
+    try:
+        result = read_run(run_dir)
+    except (OSError, ValueError) as exc:
+        return fail(f"{run_dir}: cannot be read ({exc})")
     model = build_model(result.scene)
     try:
         names = ["run.xdmf", "run.h5"] if fmt == "xdmf" else [
@@ -137,8 +140,10 @@ def run_export_command(args) -> int:
         check_new_files([out / n for n in names], "--out" if args.out else "RUN_DIR")
     except OutputError as exc:
         return fail(str(exc))
-    paths = export_run(result, model, out, fmt)
-    if not args.out:
-        adopt_files(run_dir, paths)
+    try:
+        paths = export_run(result, model, out, fmt)
+    finally:  # the files written so far, even if stopped, join the run's marker
+        if not args.out:
+            adopt_files(run_dir, [out / n for n in names if (out / n).is_file()])
     print(f"wrote {len(paths)} file(s) to {out}/")
     return 0

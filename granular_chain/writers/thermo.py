@@ -59,6 +59,7 @@ class ThermoLog:
         self._coulomb = model.eta_static > 0
         self._last_t = -math.inf
         self.lines = 0
+        self.last_step = None
         self._fh = self._csv = None
         if path is not None and resume_lines is not None:  # a run restarted from a checkpoint
             from .tables import keep_lines
@@ -90,6 +91,7 @@ class ThermoLog:
         if self.dt is not None and frame.t < self._last_t + self.dt:
             return
         self._last_t = frame.t
+        self.last_step = frame.step
         self.lines += 1
         row = self.row(frame)
         if self._csv is not None:
