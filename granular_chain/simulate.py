@@ -96,22 +96,17 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     their default effect).
     """
     model = preflight(scene)
-    if scene.run.stepper == "event":
-        from .steppers.events import simulate_events
-        result = simulate_events(scene, model)
-        frames = FrameLog(writers)
-        for q in range(result.t.size):  # the event stepper keeps its frames: hand them on
-            frames.record(_frame_of(result, q))
-        frames.close(result)
-        warning = next_neighbour_overlap(result.t, result.x, model.radius)
-    else:
-        watch = NeighbourWatch(model.radius)
-        log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
-        try:
+    watch = NeighbourWatch(model.radius)
+    log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
+    try:
+        if scene.run.stepper == "event":
+            from .steppers.events import simulate_events
+            result = simulate_events(scene, model, log=log)
+        else:
             result = _simulate_verlet(scene, model, progress, log=log, thermo=thermo)
-        finally:
-            log.finish()  # (the writers' thread is done before anyone closes their files)
-        warning = watch.warning
+    finally:
+        log.finish()  # (the writers' thread is done before anyone closes their files)
+    warning = watch.warning
     if warning:
         result.info.setdefault("warnings", []).append(warning)
     if scene.run.energy_tolerance is not None:
