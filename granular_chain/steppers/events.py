@@ -596,7 +596,7 @@ class EventRun:
         if due:
             self.next_checkpoint = steps + self.every
         if self.checkpoint is not None and (due or interrupted):
-            self.checkpoint(checkpoint_state(self, self.wall + wall))
+            self.checkpoint(checkpoint_state(self, self.wall + wall, interrupted))
 
     def flush(self) -> None:
         """Hand on the frames recorded since the last flush; keep the last one in row 0."""
@@ -667,7 +667,7 @@ class EventRun:
         _restore_log(self.log, state)
 
 
-def checkpoint_state(run: EventRun, wall: float = 0.0) -> dict:
+def checkpoint_state(run: EventRun, wall: float = 0.0, interrupted: bool = False) -> dict:
     """Everything an event run needs to continue exactly (plain numpy arrays and
     Python scalars, for ``numpy.savez``).
 
@@ -679,10 +679,12 @@ def checkpoint_state(run: EventRun, wall: float = 0.0) -> dict:
     last frame, already handed on) and the event log so far ``ev_t, ev_k,
     ev_i`` (kernel numbering and units); the driver's counters ``handed``,
     ``frames`` (frames handed on so far), ``pe0``, ``kernel_balance``,
-    ``budget``, ``mark_t``, ``mark_steps``, ``wall_time`` (seconds); and the
-    FrameLog's ``log_count``, ``log_max_balance_error``, ``log_keep`` and, when
-    it keeps only the first and latest frames, ``log_first_<field>`` and
-    ``log_last_<field>``.
+    ``budget``, ``mark_t``, ``mark_steps``, ``wall_time`` (seconds of kernel
+    calls so far), ``interrupted`` (taken because a signal stops the run); and the
+    FrameLog's ``log_count``, ``log_max_balance_error``, ``log_keep`` and its
+    first and latest frames ``log_first_<field>``, ``log_last_<field>`` (fields
+    of :class:`~granular_chain.frames.Frame`), for a resumed log that keeps
+    only those two.
     """
     pk = run.packed
     state = {"format": CHECKPOINT_FORMAT}
@@ -696,11 +698,12 @@ def checkpoint_state(run: EventRun, wall: float = 0.0) -> dict:
         state[name] = np.array(pk[name][:nev])
     state.update(handed=run.handed, frames=run.frames, pe0=run.pe0,
                  kernel_balance=run.balance, budget=int(run.budget),
-                 mark_t=float(run.mark[0]), mark_steps=int(run.mark[1]), wall_time=float(wall))
+                 mark_t=float(run.mark[0]), mark_steps=int(run.mark[1]), wall_time=float(wall),
+                 interrupted=bool(interrupted))
     log = run.log
     state.update(log_count=log.count, log_max_balance_error=float(log.max_balance_error),
                  log_keep=bool(log.keep))
-    if not log.keep and log.count:
+    if log.count:
         for which, k in (("first", 0), ("last", -1)):
             for name in log._FIELDS:
                 value = log.kept[name][k]
@@ -714,14 +717,15 @@ def _restore_log(log: FrameLog, state: dict) -> None:
     frames) back as the checkpointed run's log had them."""
     log.count = int(state["log_count"])
     log.max_balance_error = float(state["log_max_balance_error"])
-    if log.keep or log.count == 0 or "log_first_t" not in state:
+    if log.keep or log.count == 0:
         return
+    kept = {}
     for name in log._FIELDS:
         first, last = state[f"log_first_{name}"], state[f"log_last_{name}"]
-        if np.ndim(first) == 0:
-            first, last = first.item() if hasattr(first, "item") else first, \
-                last.item() if hasattr(last, "item") else last
-        log.kept[name] = [first, last] if log.count >= 2 else [first]
+        if np.ndim(first) == 0:  # (numpy.savez turns scalars into 0-d arrays)
+            first, last = np.asarray(first).item(), np.asarray(last).item()
+        kept[name] = [first, last] if log.count >= 2 else [first]
+    log.kept = kept
 
 
 def _out_of_steps(packed: _Packed, mark) -> bool:
