@@ -353,7 +353,8 @@ def _pack_run(scene, model: Model, stream: bool = False) -> _Packed:
     """Every argument of the kernel for a run of ``scene`` (already in the units
     the kernel runs in): the state, the settings and the work buffers. With
     ``stream`` the frame buffers start at STREAM_FRAMES rows (the driver empties
-    them between kernel calls) instead of the run's whole cadence."""
+    them between kernel calls; their size depends on N only) instead of the
+    run's whole cadence."""
     settings = scene.run
     feat = model.features
     N = model.count
@@ -409,8 +410,8 @@ def _pack_run(scene, model: Model, stream: bool = False) -> _Packed:
     fcap = 64
     if st[K.S_OUTDT] > 0.0:
         fcap = min(int(settings.t_end / st[K.S_OUTDT]) + 16, 1 << 20)
-    if stream:
-        fcap = min(fcap, STREAM_FRAMES)
+    if stream:  # rows set by N only: memory does not depend on the number of frames
+        fcap = max(16, min(STREAM_FRAMES, STREAM_VALUES // max(N, 1)))
     fr_t = np.zeros(fcap)
     fr_x = np.zeros((fcap, N))
     fr_v = np.zeros((fcap, N))
@@ -534,8 +535,10 @@ def _drive(packed: _Packed, stop=None, run=None):
 
 
 #: Rows of the frame buffers of a run whose frames are streamed (handed to a
-#: FrameLog between kernel calls): memory does not grow with the number of frames.
+#: FrameLog between kernel calls): at most STREAM_FRAMES, at most about
+#: STREAM_VALUES values per array (x, v, f) for long chains, at least 16.
 STREAM_FRAMES = 256
+STREAM_VALUES = 1 << 16
 _FRAME_BUFS = ("fr_t", "fr_x", "fr_v", "fr_f", "fr_e")
 _EVENT_BUFS = ("ev_t", "ev_k", "ev_i")
 #: Version of the checkpoint dictionary (:func:`checkpoint_state`).
