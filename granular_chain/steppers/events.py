@@ -618,24 +618,28 @@ class EventRun:
                                         + block[:, 3] - e0)))
             if not math.isnan(self.balance) and not worst <= self.balance:
                 self.balance = worst
-        for q in range(self.handed, nfr):
-            self.log.record(self._frame(q, e0))
-            self.frames += 1
+        self._hand_on(self.handed, nfr, e0)
         if nfr > 1:
             for name in _FRAME_BUFS:
                 pk[name][0] = pk[name][nfr - 1]
             pk["ist"][K.I_NFR] = 1
         self.handed = 1
 
-    def _frame(self, q: int, e0: float) -> Frame:
-        """Row q of the frame buffers in the scene's units."""
-        pk, u = self.packed, self.units
-        t, x, v, f = float(pk["fr_t"][q]), pk["fr_x"][q], pk["fr_v"][q], pk["fr_f"][q]
-        ke, pe, wc, wv = (float(e) for e in pk["fr_e"][q])
+    def _hand_on(self, lo: int, hi: int, e0: float) -> None:
+        """Rows lo..hi-1 of the frame buffers to the log, in the scene's units."""
+        pk, u, record = self.packed, self.units, self.log.record
+        xs, vs, fs = pk["fr_x"], pk["fr_v"], pk["fr_f"]
+        ts, es = pk["fr_t"][lo:hi].tolist(), pk["fr_e"][lo:hi].tolist()  # exact floats
         if u is not None:
-            t, x, v, f = t * u.t, x * u.x, v * u.v, f * u.f
-            ke, pe, wc, wv, e0 = ke * u.e, pe * u.e, wc * u.e, wv * u.e, e0 * u.e
-        return Frame(self.frames, t, x, v, f, ke, pe, wc, wv, e0)
+            e0 = e0 * u.e
+        for q in range(lo, hi):
+            t, (ke, pe, wc, wv) = ts[q - lo], es[q - lo]
+            x, v, f = xs[q], vs[q], fs[q]
+            if u is not None:
+                t, x, v, f = t * u.t, x * u.x, v * u.v, f * u.f
+                ke, pe, wc, wv = ke * u.e, pe * u.e, wc * u.e, wv * u.e
+            record(Frame(self.frames, t, x, v, f, ke, pe, wc, wv, e0))
+            self.frames += 1
 
     def restore(self, state: dict) -> None:
         """Continue from ``state`` (:func:`checkpoint_state` of a run of the same scene)."""
