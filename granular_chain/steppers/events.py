@@ -352,9 +352,9 @@ def _linear_step_cap(kc, present, gamma, mass):
 def _pack_run(scene, model: Model, stream: bool = False) -> _Packed:
     """Every argument of the kernel for a run of ``scene`` (already in the units
     the kernel runs in): the state, the settings and the work buffers. With
-    ``stream`` the frame buffers start at STREAM_FRAMES rows (the driver empties
-    them between kernel calls; their size depends on N only) instead of the
-    run's whole cadence."""
+    ``stream`` the frame buffers get a size set by N alone (STREAM_FRAMES rows,
+    fewer for long chains: the driver empties them between kernel calls) instead
+    of room for the run's whole cadence."""
     settings = scene.run
     feat = model.features
     N = model.count
