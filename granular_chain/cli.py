@@ -143,11 +143,29 @@ class _Attached:
             steps = step_plan(model, scene).steps
             self.thermo = ThermoLog(model, thermo_every(steps, out.thermo), path, echo,
                                     resume_lines=lines)
-        else:  # the event stepper hands its frames on after the run: thin them in time
-            self.thermo = ThermoLog(model, 0, path, echo, dt=run.t_end / 20)
+        else:  # the event stepper hands its frames on as they come: thin them in time
+            self.thermo = ThermoLog(model, 0, path, echo, dt=run.t_end / 20,
+                                    resume_lines=lines)
+            if resume is not None:
+                self.thermo._last_t = float(resume["thermo_last_t"])
             self.writers.append(self.thermo)
         # Plots without a trajectory to read back need the frames in memory.
         self.keep_frames = out.plots and not out.trajectory
+
+    def checkpoint(self, folder: Path, scene):
+        """The callback that saves a run's checkpoint with what the writers need to
+        reopen their files at it (frames written, thermo lines)."""
+        from .checkpoint import save_checkpoint
+
+        def save(state: dict) -> None:
+            state = dict(state)
+            if "frames" not in state:  # the event stepper counts the frames it handed on
+                state["frames"] = state["log_count"]
+            state["thermo_lines"] = self.thermo.lines
+            state["thermo_last_t"] = float(self.thermo._last_t)
+            save_checkpoint(folder, state, scene)
+
+        return save
 
     def abandon(self) -> None:
         """Close every file after a failure (the run folder is then removed)."""
@@ -270,7 +288,7 @@ def _note_killed_runs(out: Path) -> None:
 
 def _execute(args, scene, model, out: Path, restart) -> int:
     """Run with the writers attached, then publish the run folder."""
-    from .checkpoint import CHECKPOINT, save_checkpoint
+    from .checkpoint import CHECKPOINT
     from .interrupts import stop_signals
     from .result import Status
     from .rundir import OutputError, RunFolder
@@ -289,7 +307,7 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                     result = simulate(
                         scene, progress=False, writers=attached.writers,
                         keep_frames=attached.keep_frames, thermo=attached.thermo,
-                        checkpoint=lambda state: save_checkpoint(folder.tmp, state, scene),
+                        checkpoint=attached.checkpoint(folder.tmp, scene),
                         resume=resume)
                 except BaseException:
                     attached.abandon()

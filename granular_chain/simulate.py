@@ -103,27 +103,27 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     their default effect).
     """
     model = preflight(scene)
-    if scene.run.stepper == "event":
-        if resume is not None:
-            raise SimulationError("--restart: continuing an event-stepper run is not "
-                                  "supported; run it again")
-        from .steppers.events import simulate_events
-        result = simulate_events(scene, model)
-        frames = FrameLog(writers)
-        for q in range(result.t.size):  # the event stepper keeps its frames: hand them on
-            frames.record(_frame_of(result, q))
-        frames.close(result)
-        warning = next_neighbour_overlap(result.t, result.x, model.radius)
-    else:
-        watch = NeighbourWatch(model.radius)
-        log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
-        try:
+    watch = NeighbourWatch(model.radius)
+    log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
+    every = scene.output.checkpoint_every
+    try:
+        if scene.run.stepper == "event":
+            from .steppers.events import simulate_events
+
+            def synced(state):  # the writers have every frame so far before the state
+                log.sync()
+                checkpoint(state)
+
+            result = simulate_events(scene, model, log=log, resume=resume,
+                                     checkpoint=synced if checkpoint else None,
+                                     checkpoint_every=every or 0)
+        else:
             run = VerletRun(scene, model, progress, log=log, thermo=thermo, checkpoint=checkpoint,
-                            checkpoint_every=scene.output.checkpoint_every)
+                            checkpoint_every=every)
             result = run.run(resume=resume)
-        finally:
-            log.finish()  # (the writers' thread is done before anyone closes their files)
-        warning = watch.warning
+    finally:
+        log.finish()  # (the writers' thread is done before anyone closes their files)
+    warning = watch.warning
     if warning:
         result.info.setdefault("warnings", []).append(warning)
     if scene.run.energy_tolerance is not None:
@@ -131,13 +131,6 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
                                                        "run.energy_tolerance")
     result.scene = scene
     return result
-
-
-def _frame_of(result: Result, q: int) -> Frame:
-    e = result.energy
-    return Frame(q, float(result.t[q]), result.x[q], result.v[q], result.f[q],
-                 float(e.kinetic[q]), float(e.potential[q]), float(e.coulomb[q]),
-                 float(e.viscous[q]), float(e.initial))
 
 
 class NeighbourWatch:

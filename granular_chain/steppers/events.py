@@ -17,12 +17,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from typing import NamedTuple
 
 import numba
 from numba import literally
 import numpy as np
 
 from .._compile import specialised
+from ..frames import Frame, FrameLog
 from ..interrupts import CHUNK_SECONDS, StopRequest, stop_signals
 from ..ledger import ledger_verdict
 from ..model import LAW_LINEAR, Model
@@ -30,7 +32,7 @@ from ..result import OVERLAP_ADVICE, EnergyLedger, Event, Result, Status
 from . import events_kernel as K
 from .verlet import EVENT_KINDS
 
-__all__ = ["simulate_events", "series_order"]
+__all__ = ["simulate_events", "series_order", "checkpoint_state", "EventRun"]
 
 # n = 2: order and relative size of the first neglected terms (below roundoff).
 LINEAR_ORDER = 24
@@ -182,27 +184,60 @@ def check_exponents(model: Model) -> None:
             f"ledger misses the promised tolerance (docs/events.md); use run.stepper: verlet")
 
 
-def simulate_events(scene, model: Model) -> Result:
-    """Run the scene with the event stepper in its own scaled units (see :func:`_scales`)."""
+def simulate_events(scene, model: Model, log: FrameLog | None = None, *, resume=None,
+                    checkpoint=None, checkpoint_every: int = 0) -> Result:
+    """Run the scene with the event stepper in its own scaled units (see :func:`_scales`).
+
+    Parameters
+    ----------
+    scene, model
+        The scene and its Model (:func:`granular_chain.simulate.preflight`).
+    log : FrameLog, optional
+        Where the frames go as the run goes (the scene's units; ``Frame.step`` is
+        the frame's number): handed on between kernel calls, so memory does not
+        grow with the number of frames when ``log.keep`` is false. Closed with the
+        Result at the end. Without it (and without ``resume`` and ``checkpoint``)
+        the frames stay in the kernel's buffers and the Result holds them all.
+    resume : dict, optional
+        A :func:`checkpoint_state` of a run of the same scene: the run continues
+        from it; the frames handed on and the end state are those the run would
+        have had without the interruption, bit for bit. The Result's frames are
+        those handed on after the resume (with ``log.keep`` false: the first and
+        latest of the whole run, the checkpoint holds the first).
+    checkpoint : callable, optional
+        ``checkpoint(state)`` with a :func:`checkpoint_state` dictionary, every
+        ``checkpoint_every`` Taylor steps (at the kernel's next return after
+        them) and when a signal interrupts the run (before its final frame).
+    checkpoint_every : int
+        Taylor steps between checkpoints (0: only at an interruption).
+    """
     check_exponents(model)
     scales = _scales(model)
+    streamed = log is not None or resume is not None or checkpoint is not None
+    if streamed and log is None:
+        log = FrameLog()
+    kw = dict(log=log, resume=resume, checkpoint=checkpoint, checkpoint_every=checkpoint_every)
     if scales is None:
         atol = _unscaled_atol(model, scene.run.atol)
         if atol != scene.run.atol:
             scene = scene.model_copy(update={"run": scene.run.model_copy(update={"atol": atol})})
-        return _simulate_events(scene, model, 1.0)
+        r = _simulate_events(scene, model, None, **kw)
+        if log is not None:
+            log.close(r)
+        return r
     M, A, B = scales
     run = scene.run.model_copy(update={"t_end": scene.run.t_end / B})
     out = scene.output.model_copy(
         update={"dt": scene.output.dt / B if scene.output.dt is not None else None})
-    r = _simulate_events(scene.model_copy(update={"run": run, "output": out}),
-                         _scaled_model(model, M, A, B), B)
     V, F, E = A / B, M * A / (B * B), M * A * A / (B * B)
-    led = r.energy
-    r.energy = EnergyLedger(kinetic=led.kinetic * E, potential=led.potential * E,
-                            coulomb=led.coulomb * E, viscous=led.viscous * E,
-                            initial=led.initial * E)
-    r.t, r.x, r.v, r.f = r.t * B, r.x * A, r.v * V, r.f * F
+    r = _simulate_events(scene.model_copy(update={"run": run, "output": out}),
+                         _scaled_model(model, M, A, B), _Units(B, A, V, F, E), **kw)
+    if not streamed:  # (a streamed run's frames and ledger are in the scene's units)
+        led = r.energy
+        r.energy = EnergyLedger(kinetic=led.kinetic * E, potential=led.potential * E,
+                                coulomb=led.coulomb * E, viscous=led.viscous * E,
+                                initial=led.initial * E)
+        r.t, r.x, r.v, r.f = r.t * B, r.x * A, r.v * V, r.f * F
     r.t_final, r.x_final, r.v_final = r.t_final * B, r.x_final * A, r.v_final * V
     r.events = [Event(e.t * B, e.kind, e.index) for e in r.events]
     r.info["event_stepper"]["internal_scales"] = {"mass": M, "length": A, "time": B}
@@ -211,12 +246,17 @@ def simulate_events(scene, model: Model) -> Result:
     if model.units == "physical":
         from ..units import scaled_parameters
         r.info["scaled"] = scaled_parameters(model)
+    if log is not None:
+        log.close(r)
     return r
 
 
-def _simulate_events(scene, model: Model, tscale: float) -> Result:
-    """Run the scene with the event stepper (see module docstring); times in
-    messages are multiplied by ``tscale`` (the scene's own time unit).
+def _simulate_events(scene, model: Model, units, log=None, resume=None, checkpoint=None,
+                     checkpoint_every=0) -> Result:
+    """Run the scene with the event stepper (see module docstring); ``units`` the
+    factors to the scene's own units (:class:`_Units`, None: the same), used for
+    the streamed frames and for times in messages. With a ``log`` (or ``resume``
+    or ``checkpoint``) the frames are streamed (:class:`EventRun`).
 
     Returns
     -------
@@ -225,10 +265,19 @@ def _simulate_events(scene, model: Model, tscale: float) -> Result:
         for N <= 64 (longer chains: at the cadence only, to bound memory), at the
         ``output.dt`` cadence (see :func:`_frame_interval`), and at the end; ``events`` the full event log; ``steps`` the Taylor steps taken.
     """
-    packed = _pack_run(scene, model)
+    tscale = units.t if units is not None else 1.0
+    packed = _pack_run(scene, model, stream=log is not None)
+    run = None
+    if log is not None:
+        run = EventRun(packed, log, units, checkpoint, checkpoint_every)
+        if resume is not None:
+            run.restore(resume)
     with stop_signals() as stop:
-        code, wall = _drive(packed, stop)
-    result = _build_result(packed, code, wall, scene, model, tscale)
+        code, wall = _drive(packed, stop, run)
+    if run is not None:
+        run.flush()
+        wall += run.wall
+    result = _build_result(packed, code, wall, scene, model, tscale, run)
     if code == C_INTERRUPTED:
         result.info["signal"] = stop.signum
         result.message = (f"stopped by {stop.name} at t = {result.t_final * tscale:.12g} "
@@ -300,9 +349,12 @@ def _linear_step_cap(kc, present, gamma, mass):
     return LINEAR_STEP / L if L > 0 else 0.0
 
 
-def _pack_run(scene, model: Model) -> _Packed:
+def _pack_run(scene, model: Model, stream: bool = False) -> _Packed:
     """Every argument of the kernel for a run of ``scene`` (already in the units
-    the kernel runs in): the state, the settings and the work buffers."""
+    the kernel runs in): the state, the settings and the work buffers. With
+    ``stream`` the frame buffers get a size set by N alone (STREAM_FRAMES rows,
+    fewer for long chains: the driver empties them between kernel calls) instead
+    of room for the run's whole cadence."""
     settings = scene.run
     feat = model.features
     N = model.count
@@ -358,6 +410,8 @@ def _pack_run(scene, model: Model) -> _Packed:
     fcap = 64
     if st[K.S_OUTDT] > 0.0:
         fcap = min(int(settings.t_end / st[K.S_OUTDT]) + 16, 1 << 20)
+    if stream:  # rows set by N only: memory does not depend on the number of frames
+        fcap = max(16, min(STREAM_FRAMES, STREAM_VALUES // max(N, 1)))
     fr_t = np.zeros(fcap)
     fr_x = np.zeros((fcap, N))
     fr_v = np.zeros((fcap, N))
@@ -429,7 +483,7 @@ def next_budget(budget: int, seconds: float) -> int:
     return int(min(max(scaled, budget / 8.0, 1.0), 4.0 * budget, 1 << 40))
 
 
-def _drive(packed: _Packed, stop=None):
+def _drive(packed: _Packed, stop=None, run=None):
     """Call the kernel until it stops for another reason than a full buffer or a
     spent work budget.
 
@@ -437,19 +491,27 @@ def _drive(packed: _Packed, stop=None):
     makes a bounded number of main-loop passes (sized to return within about
     CHUNK_SECONDS) and a requested stop ends the run with C_INTERRUPTED between
     calls; the kernel resumes from its arrays, so the trajectory is the same
-    bit for bit as in one call. Returns the code and the wall time (seconds).
+    bit for bit as in one call. With an :class:`EventRun` ``run``, the frames
+    recorded by each call are handed on between calls and checkpoints are taken
+    (:meth:`EventRun.between`), and the pace counters start from the run's.
+    Returns the code and the wall time (seconds).
     """
     args = packed.args
     kernel = packed.kernel
     ist, st = packed["ist"], packed["st"]
-    budget = FIRST_BUDGET
+    budget = FIRST_BUDGET if run is None else run.budget
     start = time.perf_counter()
-    mark = (float(st[K.S_T]), int(ist[K.I_STEPS]))
+    mark = (float(st[K.S_T]), int(ist[K.I_STEPS])) if run is None else run.mark
     while True:
-        ist[K.I_BUDGET] = budget if stop is not None else 0
+        if stop is None:
+            ist[K.I_BUDGET] = 0
+        else:
+            ist[K.I_BUDGET] = budget if run is None else run.passes(budget)
         t0 = time.perf_counter()
         code = kernel(*args)
         if code == K.C_BUFFER:
+            if run is not None:
+                run.flush()  # (the kernel resumes a step cut short by a full buffer)
             _grow_buffers(args)
             ist = args[_A["ist"]]
         elif code == K.C_YIELD:
@@ -461,12 +523,216 @@ def _drive(packed: _Packed, stop=None):
             mark = (float(st[K.S_T]), int(ist[K.I_STEPS]))
         else:
             break
-        if stop is not None and stop.requested:
+        interrupted = stop is not None and stop.requested
+        if run is not None:
+            run.between(budget, mark, time.perf_counter() - start, interrupted)
+        if interrupted:
             code = C_INTERRUPTED
             _final_frame(packed)
             break
     ist[K.I_BUDGET] = 0
     return code, time.perf_counter() - start
+
+
+#: Rows of the frame buffers of a run whose frames are streamed (handed to a
+#: FrameLog between kernel calls): at most STREAM_FRAMES, at most about
+#: STREAM_VALUES values per array (x, v, f) for long chains, at least 16.
+STREAM_FRAMES = 256
+STREAM_VALUES = 1 << 16
+_FRAME_BUFS = ("fr_t", "fr_x", "fr_v", "fr_f", "fr_e")
+_EVENT_BUFS = ("ev_t", "ev_k", "ev_i")
+#: Version of the checkpoint dictionary (:func:`checkpoint_state`).
+CHECKPOINT_FORMAT = 1
+
+
+class _Units(NamedTuple):
+    """Factors from the kernel's units to the scene's (time, length, speed, force,
+    energy); None: the kernel runs in the scene's units."""
+
+    t: float
+    x: float
+    v: float
+    f: float
+    e: float
+
+
+class EventRun:
+    """The driver's side of an event run whose frames are streamed.
+
+    Between kernel calls the frames the kernel recorded since the last call are
+    handed to ``log`` (in the scene's units: exactly the numbers the Result of
+    an unstreamed run holds) and the frame buffers are emptied but for their
+    last frame, whose time the kernel reads; the event log stays in memory (a
+    few numbers an event, not frames). Checkpoints (:func:`checkpoint_state`)
+    go to ``checkpoint`` every ``checkpoint_every`` Taylor steps and when the
+    run is interrupted.
+    """
+
+    def __init__(self, packed: _Packed, log: FrameLog, units, checkpoint=None,
+                 checkpoint_every: int = 0):
+        self.packed, self.log, self.units = packed, log, units
+        self.checkpoint = checkpoint
+        self.every = int(checkpoint_every) if checkpoint is not None else 0
+        self.handed = 0  #: rows of the frame buffers already handed on
+        self.frames = 0  #: frames handed on over the whole run (Frame.step)
+        self.pe0 = math.nan  #: elastic energy of the first frame (kernel units)
+        self.balance = 0.0  #: largest |ledger balance| over the frames (kernel units)
+        self.budget, self.mark = FIRST_BUDGET, (float(packed["st"][K.S_T]), 0)
+        self.next_checkpoint = self.every
+        self.wall = 0.0  #: wall time of the kernel calls before a resume
+        self.resumed = False
+
+    def passes(self, budget: int) -> int:
+        """The work budget of the next call: ``budget``, cut so that the call returns
+        at the next checkpoint (the trajectory does not depend on where calls end)."""
+        if self.every <= 0:
+            return budget
+        left = self.next_checkpoint - int(self.packed["ist"][K.I_STEPS])
+        return int(min(budget, max(left, 1)))
+
+    def between(self, budget: int, mark, wall: float, interrupted: bool) -> None:
+        """After a kernel call: hand on its frames, checkpoint when due or interrupted."""
+        self.budget, self.mark = budget, mark
+        self.flush()
+        steps = int(self.packed["ist"][K.I_STEPS])
+        due = self.every > 0 and steps >= self.next_checkpoint
+        if due:
+            self.next_checkpoint = steps + self.every
+        if self.checkpoint is not None and (due or interrupted):
+            self.checkpoint(checkpoint_state(self, self.wall + wall, interrupted))
+
+    def flush(self) -> None:
+        """Hand on the frames recorded since the last flush; keep the last one in row 0."""
+        pk = self.packed
+        nfr = int(pk["ist"][K.I_NFR])
+        if nfr == 0:
+            return
+        fr_e = pk["fr_e"]
+        if self.frames == 0 and self.handed == 0:
+            self.pe0 = float(fr_e[0, 1])
+        e0 = pk.ke0 + self.pe0
+        if nfr > self.handed:
+            block = fr_e[self.handed:nfr]
+            # the ledger error in kernel units, as EnergyLedger.balance_error forms it
+            worst = float(np.max(np.abs(block[:, 0] + block[:, 1] + block[:, 2]
+                                        + block[:, 3] - e0)))
+            if not math.isnan(self.balance) and not worst <= self.balance:
+                self.balance = worst
+        self._hand_on(self.handed, nfr, e0)
+        if nfr > 1:
+            for name in _FRAME_BUFS:
+                pk[name][0] = pk[name][nfr - 1]
+            pk["ist"][K.I_NFR] = 1
+        self.handed = 1
+
+    def _hand_on(self, lo: int, hi: int, e0: float) -> None:
+        """Rows lo..hi-1 of the frame buffers to the log, in the scene's units."""
+        pk, u, record = self.packed, self.units, self.log.record
+        xs, vs, fs = pk["fr_x"], pk["fr_v"], pk["fr_f"]
+        ts, es = pk["fr_t"][lo:hi].tolist(), pk["fr_e"][lo:hi].tolist()  # exact floats
+        if u is not None:
+            e0 = e0 * u.e
+        for q in range(lo, hi):
+            t, (ke, pe, wc, wv) = ts[q - lo], es[q - lo]
+            x, v, f = xs[q], vs[q], fs[q]
+            if u is not None:
+                t, x, v, f = t * u.t, x * u.x, v * u.v, f * u.f
+                ke, pe, wc, wv = ke * u.e, pe * u.e, wc * u.e, wv * u.e
+            record(Frame(self.frames, t, x, v, f, ke, pe, wc, wv, e0))
+            self.frames += 1
+
+    def restore(self, state: dict) -> None:
+        """Continue from ``state`` (:func:`checkpoint_state` of a run of the same scene)."""
+        if int(state.get("format", -1)) != CHECKPOINT_FORMAT:
+            raise ValueError(f"not an event-stepper checkpoint of format {CHECKPOINT_FORMAT}")
+        args = self.packed.args
+        for name in _KARGS[_NSCALAR:]:
+            key = "k_" + name
+            if key in state:
+                old = args[_A[name]]
+                new = np.ascontiguousarray(state[key], dtype=old.dtype)
+                if new.shape != old.shape:
+                    raise ValueError(f"checkpoint: {name} has shape {new.shape}, the scene "
+                                     f"gives {old.shape} (another scene?)")
+                args[_A[name]] = new.copy()
+        for names, count in ((_FRAME_BUFS, K.I_NFR), (_EVENT_BUFS, K.I_NEV)):
+            live = int(self.packed["ist"][count])
+            for name in names:
+                i = _A[name]
+                rows = max(args[i].shape[0], 2 * live + 16)
+                buf = np.zeros((rows,) + args[i].shape[1:], dtype=args[i].dtype)
+                buf[:live] = state[name]
+                args[i] = buf
+        self.handed, self.frames = int(state["handed"]), int(state["frames"])
+        self.pe0, self.balance = float(state["pe0"]), float(state["kernel_balance"])
+        self.budget = int(state["budget"])
+        self.mark = (float(state["mark_t"]), int(state["mark_steps"]))
+        steps = int(self.packed["ist"][K.I_STEPS])
+        self.next_checkpoint = steps + self.every if self.every > 0 else 0
+        self.wall = float(state["wall_time"])
+        self.resumed = True
+        _restore_log(self.log, state)
+
+
+def checkpoint_state(run: EventRun, wall: float = 0.0, interrupted: bool = False) -> dict:
+    """Everything an event run needs to continue exactly (plain numpy arrays and
+    Python scalars, for ``numpy.savez``).
+
+    Keys: ``format``; ``k_<name>`` every array argument of the kernel but the
+    buffers (its state: ``k_st``, ``k_ist`` with the step, event and frame
+    counts and the cadence position, the positions ``k_u``, velocities ``k_v``,
+    overlaps ``k_dl``, contact and friction modes, the kept moving set, ...);
+    the live rows of the frame buffers ``fr_t, fr_x, fr_v, fr_f, fr_e`` (the
+    last frame, already handed on) and the event log so far ``ev_t, ev_k,
+    ev_i`` (kernel numbering and units); the driver's counters ``handed``,
+    ``frames`` (frames handed on so far), ``pe0``, ``kernel_balance``,
+    ``budget``, ``mark_t``, ``mark_steps``, ``wall_time`` (seconds of kernel
+    calls so far), ``interrupted`` (taken because a signal stops the run); and the
+    FrameLog's ``log_count``, ``log_max_balance_error``, ``log_keep`` and its
+    first and latest frames ``log_first_<field>``, ``log_last_<field>`` (fields
+    of :class:`~granular_chain.frames.Frame`), for a resumed log that keeps
+    only those two.
+    """
+    pk = run.packed
+    state = {"format": CHECKPOINT_FORMAT}
+    for name in _KARGS[_NSCALAR:]:
+        if name not in _FRAME_BUFS and name not in _EVENT_BUFS:
+            state["k_" + name] = np.array(pk[name])
+    nfr, nev = int(pk["ist"][K.I_NFR]), int(pk["ist"][K.I_NEV])
+    for name in _FRAME_BUFS:
+        state[name] = np.array(pk[name][:nfr])
+    for name in _EVENT_BUFS:
+        state[name] = np.array(pk[name][:nev])
+    state.update(handed=run.handed, frames=run.frames, pe0=run.pe0,
+                 kernel_balance=run.balance, budget=int(run.budget),
+                 mark_t=float(run.mark[0]), mark_steps=int(run.mark[1]), wall_time=float(wall),
+                 interrupted=bool(interrupted))
+    log = run.log
+    state.update(log_count=log.count, log_max_balance_error=float(log.max_balance_error),
+                 log_keep=bool(log.keep))
+    if log.count:
+        for which, k in (("first", 0), ("last", -1)):
+            for name in log._FIELDS:
+                value = log.kept[name][k]
+                state[f"log_{which}_{name}"] = np.array(value) if isinstance(
+                    value, np.ndarray) else value
+    return state
+
+
+def _restore_log(log: FrameLog, state: dict) -> None:
+    """Put a FrameLog's counters (and, keeping first and latest only, those two
+    frames) back as the checkpointed run's log had them."""
+    log.count = int(state["log_count"])
+    log.max_balance_error = float(state["log_max_balance_error"])
+    if log.keep or log.count == 0:
+        return
+    kept = {}
+    for name in log._FIELDS:
+        first, last = state[f"log_first_{name}"], state[f"log_last_{name}"]
+        if np.ndim(first) == 0:  # (numpy.savez turns scalars into 0-d arrays)
+            first, last = np.asarray(first).item(), np.asarray(last).item()
+        kept[name] = [first, last] if log.count >= 2 else [first]
+    log.kept = kept
 
 
 def _out_of_steps(packed: _Packed, mark) -> bool:
@@ -524,16 +790,22 @@ def _grow_buffers(args: list) -> None:
         args[iev:iev + 3] = [_grow(a, n2) for a in args[iev:iev + 3]]
 
 
-def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: float) -> Result:
-    """The Result of a finished kernel run (frames, ledger, event log, status)."""
+def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: float,
+                  run: EventRun | None = None) -> Result:
+    """The Result of a finished kernel run (frames, ledger, event log, status).
+
+    Without ``run`` every frame is in the kernel's buffers (kernel units); with
+    it the frames are those its log kept (the scene's units) and the buffers
+    hold the last one (its final state, kernel units, as without it).
+    """
     ist, st = packed["ist"], packed["st"]
-    fr_t, fr_x, fr_v, fr_f, fr_e = (packed[k] for k in ("fr_t", "fr_x", "fr_v", "fr_f", "fr_e"))
-    ev_t, ev_k, ev_i = packed["ev_t"], packed["ev_k"], packed["ev_i"]
+    fr_t, fr_x, fr_v, fr_f, fr_e = (packed[k] for k in _FRAME_BUFS)
+    ev_t, ev_k, ev_i = (packed[k] for k in _EVENT_BUFS)
     counts = packed["counts"]
     feat = model.features
     nfr = int(ist[K.I_NFR])
     nev = int(ist[K.I_NEV])
-    pe0 = float(fr_e[0, 1])
+    pe0 = float(fr_e[0, 1]) if run is None else run.pe0
     e0 = packed.ke0 + pe0
     t_final = float(st[K.S_T])
     if tscale != 1.0:  # (times 1.0 is exact: skip the arrays for the common case)
@@ -541,9 +813,6 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
     status, message = _status(code, scene, model, st, ist, t_final * tscale, nev)
     if code == C_OUT_OF_STEPS:
         message = _out_of_steps_message(packed, model, scene, t_final, tscale)
-    energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
-                          coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
-                          initial=e0)
     tol = ledger_tolerance(packed, e0, float(fr_e[nfr - 1, 2] + fr_e[nfr - 1, 3]))
     events = [Event(float(ev_t[q]), EVENT_KINDS[int(ev_k[q])], int(ev_i[q])) for q in range(nev)]
     info = {"features": feat.describe(), "granules": model.count, "units": model.units,
@@ -554,15 +823,45 @@ def _build_result(packed: _Packed, code, wall, scene, model: Model, tscale: floa
     if model.units == "physical":
         from ..units import scaled_parameters
         info["scaled"] = scaled_parameters(model)
-    x = fr_x[:nfr].copy()
-    vv = fr_v[:nfr].copy()
+    if run is None:
+        energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
+                              coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
+                              initial=e0)
+        t, x, vv, f = fr_t[:nfr].copy(), fr_x[:nfr].copy(), fr_v[:nfr].copy(), fr_f[:nfr].copy()
+        judged = energy
+    else:
+        t, x, vv, f, energy = _logged_frames(run, info)
+        # judged in kernel units first, as the frames of an unstreamed run are
+        scale = e0 if e0 > 0 else 1.0
+        judged = EnergyLedger(kinetic=np.zeros(0), potential=np.zeros(0), coulomb=np.zeros(0),
+                              viscous=np.zeros(0), initial=e0,
+                              streamed_error=run.balance / scale)
     r = Result(
-        t=fr_t[:nfr].copy(), x=x, v=vv, f=fr_f[:nfr].copy(), energy=energy, status=status,
+        t=t, x=x, v=vv, f=f, energy=judged, status=status,
         message=message, steps=int(ist[K.I_STEPS]), wall_time=wall, stepper="event", dt=None,
-        t_final=t_final, x_final=x[-1].copy(), v_final=vv[-1].copy(), events=events,
-        event_counts={k: int(n) for k, n in zip(EVENT_KINDS, counts)}, info=info)
+        t_final=t_final, x_final=fr_x[nfr - 1].copy(), v_final=fr_v[nfr - 1].copy(),
+        events=events, event_counts={k: int(n) for k, n in zip(EVENT_KINDS, counts)},
+        info=info)
     r.status, r.message = ledger_verdict(r, tol)
+    r.energy = energy
     return r
+
+
+def _logged_frames(run: EventRun, info: dict):
+    """t, x, v, f and the EnergyLedger (scene units) of a streamed run's kept frames."""
+    log = run.log
+    e0 = run.packed.ke0 + run.pe0
+    if run.units is not None:
+        e0 = e0 * run.units.e
+    whole = log.keep and not run.resumed  # else frames were handed on without being kept
+    energy = EnergyLedger(
+        kinetic=log.array("kinetic"), potential=log.array("potential"),
+        coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0,
+        streamed_error=None if whole else log.max_balance_error)
+    if not log.keep:
+        info["frames"] = log.count
+        info["frames_kept"] = "first and last (the others were streamed to the writers)"
+    return log.array("t"), log.array("x"), log.array("v"), log.array("f"), energy
 
 
 #: n = 2 (exact modes): ledger error promised per unit of work, in units of eps.
