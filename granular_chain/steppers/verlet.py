@@ -184,6 +184,23 @@ def log_walls(events, fill, step, left_wall, right_wall, u, walls, lc, rc):
 
 
 @numba.njit(cache=True)
+def sweep_contact_log(uniform, d0, u, seen, after, events, fill, step):
+    """The sweep's contact events, read off the displacements before (``after`` 0:
+    the states into ``seen``) and after the step (1: a log entry where a state
+    changed); the new fill. Kept out of the sweep and called, not inlined: code
+    around the sweep changes how its sums are reassociated (the drag's work in the
+    ledger then differs in the last bits from the run without the log)."""
+    for i in range(u.size - 1):
+        # d0 is 0 on the UNIT chain, where the sweep adds the constant 0.0: the same test
+        now = closed(d0[i], u[i], u[i + 1])
+        if not after:
+            seen[i] = now
+        elif now != seen[i]:
+            fill = log_event(events, fill, step, EV_CLOSE if now else EV_OPEN, i)
+    return fill
+
+
+@numba.njit(cache=True)
 def kick_codes(v, f, eta, eta_s, inv_m, h, codes):
     """Stop/slip codes (bit 1 stop, bit 2 slip) of the half kick :func:`synchronise`
     takes, per granule, into ``codes`` (int8, shape (N,)): the events behind the
@@ -401,14 +418,18 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         # Changes seen by the loops, logged by a scan after them: a branch inside a
         # loop with a floating-point reduction changes how it vectorises, hence the
         # order of the sum and the ledger's last bits. One code per granule of a
-        # block (Coulomb passes: bit 1 stop, bit 2 slip); the sweep is left as it is:
-        # its contacts' states are read before and after it.
+        # block (Coulomb passes: bit 1 stop, bit 2 slip); the sweep is left as it
+        # is: its contacts' states are read (into seen) before the step starts and
+        # compared after its ledger sums are stored (anywhere between, the scans
+        # changed the drag work's last bits).
         seen = np.zeros(B if coulomb else max(N - 1, 1), dtype=np.int8)
     for step in range(n_steps):
         if log_events:
             if nfill > room:
                 return step, LOG_FULL
             wl, wr = walls_closed(left_wall, right_wall, u, walls)
+            if not coulomb:  # the contacts' states before the step
+                nfill = sweep_contact_log(uniform, d0, u, seen, 0, events, nfill, step)
         wc = 0.0
         wv = 0.0
         n_stop = 0
@@ -427,10 +448,6 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             # off (a test on i inside the loop cost as much).
             n_change = 0
             n_net = 0
-            if log_events:
-                # the contacts' states before the step, read as the sweep reads them
-                for i in range(N - 1):
-                    seen[i] = closed(param(uniform, d0, d00, i), u[i], u[i + 1])
             uo = u[0]
             ui, vi, dui, w = sweep_first_half(viscous, uo, v[0], f[0], m[0], inv_m[0], E[0], P1[0],
                                               P2[0], dt, inv_dt, h)
@@ -478,11 +495,6 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             n_moving += mv
             n_close = (n_change + n_net) >> 1
             n_open = (n_change - n_net) >> 1
-            if log_events:
-                for i in range(N - 1):
-                    now = closed(param(uniform, d0, d00, i), u[i], u[i + 1])
-                    if now != seen[i]:
-                        nfill = log_event(events, nfill, step + 1, EV_CLOSE if now else EV_OPEN, i)
         else:
             # Pass 1's kick: the first half of this step and the second half of
             # the last one, except on the run's first step.
@@ -562,6 +574,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         counts[EV_CLOSE] += n_close
         counts[EV_OPEN] += n_open
         if log_events:
+            if not coulomb:  # the sweep's contact events
+                nfill = sweep_contact_log(uniform, d0, u, seen, 1, events, nfill, step + 1)
             nfill = log_walls(events, nfill, step + 1, left_wall, right_wall, u, walls, wl, wr)
             events[3][0] = nfill
         # Granules passing through each other (a contact too soft for the
