@@ -90,6 +90,17 @@ displacements it has at hand; the blocked passes keep it in the ``active``
 array. The separation watch reads its contact before the step starts; the
 overlap check (centres met) runs every step but costs only an integer count
 unless some contact force reaches ``fcap``.
+
+*Event log* (feature code ``log_events``, ``output.events``). Without it the
+kernel only counts events and no logging code is compiled. With it each event
+goes into buffers (step, kind, index) with a fill counter; a step starts only
+when the buffers have room for its worst case (:func:`log_capacity`), else the
+call returns LOG_FULL and :class:`EventLog` drains them and calls again (the
+state lives in the arrays, so the resumed run is bit-identical). Nothing is
+logged inside a loop with a floating-point sum: the Coulomb kick codes go into a
+block buffer scanned after pass 1, the sweep's contacts are read before the step
+and after its sums are stored, the walls at both ends of the step; so the run,
+its ledger included, is bit-identical to the one without the log.
 """
 
 import numba
