@@ -383,7 +383,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         themselves (a count in the contact loop is all the check costs otherwise).
     events : tuple (step, kind, index, fill)
         The event log (:func:`new_event_log`; read only with ``log_events``):
-        entries fill[0] on get (step, kind, index) of each event, ``step`` the
+        entries from fill[0] on get (step, kind, index) of each event, ``step`` the
         step of this call (1 = its first) at whose end the change was seen,
         ``kind`` an index into EVENT_KINDS, ``index`` the contact (-1 left wall,
         N-1 right wall) or the granule. A step starts only with room for
