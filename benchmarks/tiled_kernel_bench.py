@@ -77,11 +77,12 @@ def build_args(N, features, initial, seed=1, per_granule=False):
                 walls=model.walls, m=model.mass, inv_m=model.inv_mass, eta=model.eta,
                 eta_s=model.eta_static, E=E, P1=P1, P2=P2, du=np.zeros(N), dt=dt, n_steps=0, opening=1,
                 stop_contact=0, ledger=np.zeros(2), counts=np.zeros(4, dtype=np.int64),
-                olim=olim, fcap=fcap)
+                olim=olim, fcap=fcap, log_events=0, events=verlet.new_event_log(N, 0, 0))
 
 
 STATE = ("u", "v", "f", "active", "ledger", "counts")
-FEATURES = ("law", "coulomb", "viscous", "left_wall", "right_wall", "stop_mode", "uniform")
+FEATURES = ("law", "coulomb", "viscous", "left_wall", "right_wall", "stop_mode", "uniform",
+            "log_events")
 
 
 def bind(dispatcher, named):

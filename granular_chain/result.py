@@ -146,7 +146,7 @@ class Result:
     energy : EnergyLedger
         Energy ledger at the frames.
     events : list of Event
-        Event log (event stepper); the Verlet stepper only counts events.
+        Event log (event stepper; Verlet with ``output.events``, else empty).
     event_counts : dict
         Number of events of each kind.
     status : Status
@@ -217,7 +217,7 @@ class Result:
 
     def events_frame(self):
         """The event log as a ``pandas.DataFrame`` with columns t, kind, index (one row
-        per event; empty for the Verlet stepper, which only counts events)."""
+        per event; empty for a Verlet run without ``output.events``)."""
         pd = _need("pandas", "analysis", "Result.events_frame")
         return pd.DataFrame({"t": np.array([e.t for e in self.events], dtype=np.float64),
                              "kind": pd.Series([e.kind for e in self.events], dtype=object),

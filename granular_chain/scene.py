@@ -316,6 +316,9 @@ class Output(_Strict):
     csv: Bool = Field(
         False, description="Write energy.csv (energy ledger per frame) and, when the stepper "
         "logged events, events.csv.")
+    events: Bool = Field(
+        False, description="Verlet: log every contact opening/closing and stick/slip change "
+        "with step and time into events.csv (the event stepper always logs).")
     plots: Bool = Field(
         False, description="Write PNG plots into plots/ (space-time velocity diagram, energy "
         "ledger, granule velocities, a rendered frame).")

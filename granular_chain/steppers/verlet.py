@@ -90,6 +90,17 @@ displacements it has at hand; the blocked passes keep it in the ``active``
 array. The separation watch reads its contact before the step starts; the
 overlap check (centres met) runs every step but costs only an integer count
 unless some contact force reaches ``fcap``.
+
+*Event log* (feature code ``log_events``, ``output.events``). Without it the
+kernel only counts events and no logging code is compiled. With it each event
+goes into buffers (step, kind, index) with a fill counter; a step starts only
+when the buffers have room for its worst case (:func:`log_capacity`), else the
+call returns LOG_FULL and :class:`EventLog` drains them and calls again (the
+state lives in the arrays, so the resumed run is bit-identical). Nothing is
+logged inside a loop with a floating-point sum: the Coulomb kick codes go into a
+block buffer scanned after pass 1, the sweep's contacts are read before the step
+and after its sums are stored, the walls at both ends of the step; so the run,
+its ledger included, is bit-identical to the one without the log.
 """
 
 import numba
@@ -116,6 +127,7 @@ RAN_CHUNK = 0
 SEPARATED = 1
 AT_REST = 2
 OVERLAPPED = 3  # an overlap reached the sum of the radii (the centres met)
+LOG_FULL = 4  # the event log has no room for another step: drain it and call again
 
 # Values of the ``uniform`` feature code.
 PER_GRANULE = 0
@@ -129,6 +141,84 @@ STOP_ON_REST = 2
 # Indices into the event-count array.
 EV_CLOSE, EV_OPEN, EV_STOP, EV_SLIP = 0, 1, 2, 3
 EVENT_KINDS = ("contact_close", "contact_open", "stop", "slip")
+
+
+@numba.njit(cache=True)
+def log_capacity(N, coulomb):
+    """Entries an event log needs for one step of a chain of N granules: every
+    contact (walls included) may close or open, and with Coulomb friction every
+    granule may stop and slip in its kick. The kernel starts a step only with
+    this much room left."""
+    return N + 1 + (2 * N if coulomb else 0)
+
+
+def new_event_log(N: int, coulomb: bool, log_events: int):
+    """The kernel's ``events`` argument: (step int64, kind int8, index int64, fill
+    int64 (1,)). Room for at least 65536 entries and one step when logging;
+    empty buffers otherwise (the kernel compiled without the log never touches them)."""
+    size = max(1 << 16, log_capacity(N, coulomb)) if log_events else 0
+    return (np.zeros(size, dtype=np.int64), np.zeros(size, dtype=np.int8),
+            np.zeros(size, dtype=np.int64), np.zeros(1, dtype=np.int64))
+
+
+@numba.njit(inline="always", cache=True)
+def log_event(events, fill, step, kind, index):
+    """Append (step, kind, index) at entry ``fill`` of the event log; the new fill."""
+    events[0][fill] = step
+    events[1][fill] = kind
+    events[2][fill] = index
+    return fill + 1
+
+
+@numba.njit(inline="always", cache=True)
+def walls_closed(left_wall, right_wall, u, walls):
+    """(left, right): 1 where that wall's contact is closed (delta > 0), as
+    :func:`granular_chain.forces.wall_forces` measures delta; 0 without the wall."""
+    lc = 0
+    rc = 0
+    if left_wall:
+        lc = 1 if walls[0] - u[0] > 0.0 else 0
+    if right_wall:
+        rc = 1 if walls[3] + u[u.size - 1] > 0.0 else 0
+    return lc, rc
+
+
+@numba.njit(inline="always", cache=True)
+def log_walls(events, fill, step, left_wall, right_wall, u, walls, lc, rc):
+    """Log the wall contacts that changed since they were (lc, rc); the new fill."""
+    lc1, rc1 = walls_closed(left_wall, right_wall, u, walls)
+    if lc1 != lc:
+        fill = log_event(events, fill, step, EV_CLOSE if lc1 else EV_OPEN, -1)
+    if rc1 != rc:
+        fill = log_event(events, fill, step, EV_CLOSE if rc1 else EV_OPEN, u.size - 1)
+    return fill
+
+
+@numba.njit(cache=True)
+def sweep_contact_log(uniform, d0, u, seen, after, events, fill, step):
+    """The sweep's contact events, read off the displacements before (``after`` 0:
+    the states into ``seen``) and after the step (1: a log entry where a state
+    changed); the new fill. Kept out of the sweep and called, not inlined: code
+    around the sweep changes how its sums are reassociated (the drag's work in the
+    ledger then differs in the last bits from the run without the log)."""
+    for i in range(u.size - 1):
+        # d0 is 0 on the UNIT chain, where the sweep adds the constant 0.0: the same test
+        now = closed(d0[i], u[i], u[i + 1])
+        if not after:
+            seen[i] = now
+        elif now != seen[i]:
+            fill = log_event(events, fill, step, EV_CLOSE if now else EV_OPEN, i)
+    return fill
+
+
+@numba.njit(cache=True)
+def kick_codes(v, f, eta, eta_s, inv_m, h, codes):
+    """Stop/slip codes (bit 1 stop, bit 2 slip) of the half kick :func:`synchronise`
+    takes, per granule, into ``codes`` (int8, shape (N,)): the events behind the
+    stop and slip counts it returns."""
+    for i in range(v.size):
+        v1, w1, w2, code = coulomb_kick(v[i], f[i], eta[i], eta_s[i], inv_m[i], h)
+        codes[i] = code
 
 
 # The sweep's two halves of a step for one granule (scenes without Coulomb
@@ -244,20 +334,21 @@ def synchronise(v, f, eta, eta_s, inv_m, h, vs):
 
 
 @numba.njit(cache=True, nogil=True, fastmath={"reassoc", "contract", "nsz"})
-def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform,
+def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform, log_events,
                  u, v, f, active, d0, k, n, walls, m, inv_m, eta, eta_s, E, P1, P2,
-                 dt, n_steps, opening, stop_contact, ledger, counts, olim, fcap):
+                 dt, n_steps, opening, stop_contact, ledger, counts, olim, fcap, events):
     """Advance the state by up to ``n_steps`` velocity-Verlet steps, in place.
 
     Parameters
     ----------
-    law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform : int
+    law, coulomb, viscous, left_wall, right_wall, stop_mode, uniform, log_events : int
         Compile-time feature codes (``stop_mode``: bit 1 = stop at the opening
         of ``stop_contact``, bit 2 = stop when every granule is at rest;
         ``uniform``: UNIFORM when every granule has the same m, inv_m, E, P1, P2
         and every contact the same d0, k, n, so that the sweep reads element 0
         once; UNIT when moreover m = k = 1 and d0 = 0, compiled in as constants;
-        the blocked passes ignore it).
+        the blocked passes ignore it; ``log_events``: 1 to log every event in
+        ``events``, 0 to compile no log code at all).
     u, v, f : ndarray, shape (N,)
         Displacements, velocities and net spring forces (f consistent with u on
         entry). With Coulomb friction (merged kicks) v holds, between chunks,
@@ -290,6 +381,14 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         The smallest contact force at which some contact reaches its olim:
         only a step with a contact force reaching it checks the overlaps
         themselves (a count in the contact loop is all the check costs otherwise).
+    events : tuple (step, kind, index, fill)
+        The event log (:func:`new_event_log`; read only with ``log_events``):
+        entries from fill[0] on get (step, kind, index) of each event, ``step`` the
+        step of this call (1 = its first) at whose end the change was seen,
+        ``kind`` an index into EVENT_KINDS, ``index`` the contact (-1 left wall,
+        N-1 right wall) or the granule. A step starts only with room for
+        :func:`log_capacity` entries; otherwise the call returns LOG_FULL with
+        the steps taken so far (the state is that of a call of as many steps).
 
     Returns
     -------
@@ -297,7 +396,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
         Steps taken; with AT_REST in a Coulomb scene, the steps up to the time
         every granule was at rest (the step that found it moved nothing).
     code : int
-        RAN_CHUNK, SEPARATED, AT_REST or OVERLAPPED.
+        RAN_CHUNK, SEPARATED, AT_REST, OVERLAPPED or LOG_FULL.
     """
     law = literally(law)
     coulomb = literally(coulomb)
@@ -306,6 +405,7 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     right_wall = literally(right_wall)
     stop_mode = literally(stop_mode)
     uniform = literally(uniform)
+    log_events = literally(log_events)
     h = 0.5 * dt
     inv_dt = 1.0 / dt
     N = u.size
@@ -323,7 +423,24 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
     if uniform == UNIT:
         # Constants, so that the compiler drops the operations they make exact.
         m0, im0, d00, k0 = 1.0, 1.0, 0.0, 1.0
+    if log_events:
+        nfill = events[3][0]
+        room = events[0].size - log_capacity(N, coulomb)
+        # Changes seen by the loops, logged by a scan after them: a branch inside a
+        # loop with a floating-point reduction changes how it vectorises, hence the
+        # order of the sum and the ledger's last bits. One code per granule of a
+        # block (Coulomb passes: bit 1 stop, bit 2 slip); the sweep is left as it
+        # is: its contacts' states are read (into seen) before the step starts and
+        # compared after its ledger sums are stored (anywhere between, the scans
+        # changed the drag work's last bits).
+        seen = np.zeros(B if coulomb else max(N - 1, 1), dtype=np.int8)
     for step in range(n_steps):
+        if log_events:
+            if nfill > room:
+                return step, LOG_FULL
+            wl, wr = walls_closed(left_wall, right_wall, u, walls)
+            if not coulomb:  # the contacts' states before the step
+                nfill = sweep_contact_log(uniform, d0, u, seen, 0, events, nfill, step)
         wc = 0.0
         wv = 0.0
         n_stop = 0
@@ -410,6 +527,8 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                     wc += w1
                     n_stop += code & 1
                     n_slip += (code >> 1) & 1
+                    if log_events:
+                        seen[i - ua] = code
                     if stop_mode & STOP_ON_REST:
                         n_moving += 1 - at_rest_by(vi, v1, f[i], eta[i], inv_m[i], h)
                     if viscous:
@@ -419,6 +538,12 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                     else:
                         u[i] += dt * v1
                     v[i] = v1
+                if log_events:
+                    for j in range(b - a):
+                        if seen[j] & 1:
+                            nfill = log_event(events, nfill, step + 1, EV_STOP, a + j)
+                        if seen[j] & 2:
+                            nfill = log_event(events, nfill, step + 1, EV_SLIP, a + j)
                 # Walls: the left one acts on granule 0 (first block), the right
                 # one on granule N-1 (last block).
                 if a == 0:
@@ -439,6 +564,10 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
                     was = active[i]
                     n_close += now & (1 - was)
                     n_open += was & (1 - now)
+                    if log_events:
+                        if now != was:
+                            nfill = log_event(events, nfill, step + 1,
+                                              EV_CLOSE if now else EV_OPEN, i)
                     active[i] = now
                 # Pass 3: net force on the granules whose two contacts are known:
                 # a-1 .. b-2, or to N-1 on the last block (the kick that ends the
@@ -455,6 +584,11 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             ledger[1] -= wv
         counts[EV_CLOSE] += n_close
         counts[EV_OPEN] += n_open
+        if log_events:
+            if not coulomb:  # the sweep's contact events
+                nfill = sweep_contact_log(uniform, d0, u, seen, 1, events, nfill, step + 1)
+            nfill = log_walls(events, nfill, step + 1, left_wall, right_wall, u, walls, wl, wr)
+            events[3][0] = nfill
         # Granules passing through each other (a contact too soft for the
         # impact) can come out again between two output frames: checked every step.
         if n_hard > 0:
@@ -480,3 +614,77 @@ def verlet_chunk(law, coulomb, viscous, left_wall, right_wall, stop_mode, unifor
             elif n_moving == 0:
                 return step + 1, AT_REST
     return n_steps, RAN_CHUNK
+
+
+class EventLog:
+    """The driver's side of the event log (``output.events``): drains the kernel's
+    buffers into a list of :class:`granular_chain.result.Event` after each call.
+
+    An event's time is the end of the step that saw it, ``step * dt`` (t_end for
+    the run's shortened last step), clamped to the time the call reached. The
+    list grows by one Event (about 160 B, measured; not capped) per event;
+    the kernel's buffers stay at their size (:func:`new_event_log`).
+
+    Parameters
+    ----------
+    N : int
+        Granules.
+    coulomb : bool
+        Whether the kernel runs the Coulomb (merged-kick) passes.
+    dt : float
+        Step.
+    steps : int
+        Whole steps of dt in the plan; later steps end at ``t_end``.
+    t_end : float
+        End of the run.
+    """
+
+    def __init__(self, N: int, coulomb: bool, dt: float, steps: int, t_end: float):
+        self.buffers = new_event_log(N, coulomb, 1)
+        self.events: list = []
+        self.dt, self.steps, self.t_end = dt, steps, t_end
+        self._codes = np.zeros(N, dtype=np.int8)
+        self._pending: list = []
+
+    def call(self, call, args: list, done: int, n_steps_at: int, opening_at: int):
+        """``call(args)`` (one kernel call), draining the log after it and calling
+        again while the kernel reports LOG_FULL; ``done`` = steps of the run before.
+        Returns (steps taken, code) as one call would."""
+        n_steps = args[n_steps_at]
+        taken, code = call(args)
+        self._drain(done, taken)
+        while code == LOG_FULL:
+            args[opening_at] = 0
+            args[n_steps_at] = n_steps - taken
+            more, code = call(args)
+            self._drain(done + taken, more)
+            taken += more
+        args[n_steps_at] = n_steps
+        return taken, code
+
+    def _drain(self, done: int, taken: int) -> None:
+        from ..result import Event
+
+        step, kind, index, fill = self.buffers
+        q = int(fill[0])
+        s = np.minimum(step[:q], taken) + done
+        t = np.where(s <= self.steps, s * self.dt, self.t_end)
+        self.events.extend(Event(ti, EVENT_KINDS[k], i)
+                           for ti, k, i in zip(t.tolist(), kind[:q].tolist(), index[:q].tolist()))
+        fill[0] = 0
+
+    def half_kick(self, v, f, model, h: float, t: float) -> None:
+        """Hold the stop and slip events of the half kick :func:`synchronise` takes
+        at time t (v, f and h as given to it); :meth:`commit` adds them."""
+        kick_codes(v, f, model.eta, model.eta_static, model.inv_mass, h, self._codes)
+        self._pending = [(t, kind, int(i)) for bit, kind in ((1, "stop"), (2, "slip"))
+                         for i in np.flatnonzero(self._codes & bit)]
+
+    def commit(self) -> list:
+        """Add the held half-kick events (those the run's counts take in); the list."""
+        from ..result import Event
+
+        self.events.extend(Event(t, kind, i) for t, kind, i in sorted(
+            self._pending, key=lambda e: e[2]))
+        self._pending = []
+        return self.events

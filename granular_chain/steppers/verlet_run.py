@@ -181,6 +181,7 @@ class VerletRun:
         self.stop_mode = (verlet.STOP_ON_SEPARATION if "separation" in stops else 0) | (
             verlet.STOP_ON_REST if "rest" in stops else 0)
         self.stop_contact = settings.stop_contact if model.count > 1 else 0
+        self.log_events = int(scene.output.events)
         self._init_state()
         self.bar = _progress_bar(progress, self.n_total)
 
@@ -202,12 +203,16 @@ class VerletRun:
         self.vs = self.v.copy() if self.merged else self.v  # synchronised at t = 0
         self.sync = (0.0, 0, 0)
         feat = model.features
+        self.event_log = verlet.EventLog(N, self.merged, dt, self.plan.steps, self.t_end) \
+            if self.log_events else None
         self.args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
                      int(feat.right_wall), self.stop_mode, _uniform_code(model, feat, E, P1, P2),
+                     self.log_events,
                      self.u, self.v, self.f, active, model.d0, model.k, model.n, model.walls,
                      model.mass, model.inv_mass, model.eta, model.eta_static, E, P1, P2, dt,
-                     0, 1, self.stop_contact, self.ledger, self.counts, *_overlap_caps(model)]
-        self.kernel = specialised(verlet.verlet_chunk, tuple(self.args), (0, 1, 2, 3, 4, 5, 6))
+                     0, 1, self.stop_contact, self.ledger, self.counts, *_overlap_caps(model),
+                     self.event_log.buffers if self.event_log else verlet.new_event_log(N, 0, 0)]
+        self.kernel = specialised(verlet.verlet_chunk, tuple(self.args), (0, 1, 2, 3, 4, 5, 6, 7))
         self.limits = _overlap_limits(model)
         ke0, pe0 = model.energies(self.u, self.v)
         self.e0 = ke0 + pe0
@@ -251,6 +256,8 @@ class VerletRun:
         self.counts[verlet.EV_SLIP] += self.sync[2]
         result = _assemble(self.log, self.model, self.e0, status, message, self.steps,
                            time.perf_counter() - start, self.plan.dt, self.counts)
+        if self.event_log is not None:
+            result.events = self.event_log.commit()  # with the last half kick's
         if self.plan.note:
             result.info.setdefault("warnings", []).append(self.plan.note)
         if status == Status.INTERRUPTED:
@@ -385,7 +392,7 @@ class VerletRun:
 
     def _advance(self, chunk, n_steps: int) -> int:
         self.args[_ARG["n_steps"]] = n_steps
-        taken, code = chunk.call(self.kernel, self.args)
+        taken, code = self._call(chunk)
         if taken == 0:  # a call always advances; guard against an endless loop
             raise RuntimeError("internal error: the Verlet kernel took no step")
         self.args[_ARG["opening"]] = 0
@@ -396,7 +403,18 @@ class VerletRun:
             self.bar.set_postfix_str(f"t = {self.t_now:.4g} / {self.t_end:g}", refresh=False)
         return code
 
+    def _call(self, chunk):
+        """One kernel call (taken, code); with output.events, its events drained
+        into the event log (calling again while the log fills)."""
+        if self.event_log is None:
+            return chunk.call(self.kernel, self.args)
+        return self.event_log.call(lambda args: chunk.call(self.kernel, args), self.args,
+                                   self.steps, _ARG["n_steps"], _ARG["opening"])
+
     def _begin_short_step(self) -> None:
+        if self.event_log is not None and self.merged:  # the half kick ending the last whole step
+            self.event_log.half_kick(self.v, self.f, self.model, 0.5 * self.plan.dt, self.t_now)
+            self.event_log.commit()
         self.short_taken, self.dt_now = True, self.last_dt
         _begin_short_step(self.model, self.args, self.v, self.f, self.vs, self.ledger,
                           self.counts, self.merged, self.last_dt)
@@ -408,6 +426,8 @@ class VerletRun:
             m = self.model
             self.sync = verlet.synchronise(self.v, self.f, m.eta, m.eta_static, m.inv_mass,
                                            0.5 * self.dt_now, self.vs)
+            if self.event_log is not None:  # held: only the run's last one is counted
+                self.event_log.half_kick(self.v, self.f, m, 0.5 * self.dt_now, self.t_now)
             if self.stop_mode & verlet.STOP_ON_REST and code == verlet.RAN_CHUNK \
                     and not self.vs.any():
                 # at rest here (the kernel reads rest off the kick after the time

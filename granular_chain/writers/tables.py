@@ -10,7 +10,8 @@
 energy error (0 for an exact integrator). Numbers are written with 17 significant
 digits, so reading them back gives the same doubles.
 
-``events.csv`` (only when the stepper logged events, i.e. the event stepper)::
+``events.csv`` (only when the stepper logged events: the event stepper, or Verlet with
+``output.events``)::
 
     t,kind,index
 
