@@ -186,3 +186,25 @@ def test_event_stepper_run_continued_after_sigint(tmp_path):
     assert read_marker(tmp_path / "B")["complete"] is False
     assert main(["run", str(scene), "--restart", str(tmp_path / "B"), "--quiet", "--csv"]) == 0
     assert_same_run(tmp_path / "A", tmp_path / "B", vtk=False)
+
+
+def test_resumed_run_keeps_the_event_log():
+    """output.events: the events logged before the checkpoint are part of the state."""
+    import granular_chain as gc
+    from granular_chain.model import build_model
+    from granular_chain.steppers.verlet_run import VerletRun
+
+    scene = gc.scene_from_dict({
+        "granules": {"count": 20, "radius": 2.0, "velocity": {0: 1.0},
+                     "friction": {"kinetic": 2e-3, "static": 3e-3}},
+        "contacts": {"exponent": 2.5}, "walls": {"right": {"gap": 0.0, "exponent": 2.5}},
+        "run": {"t_end": 60.0, "dt": 0.013}, "output": {"events": True, "every": 17}})
+    states = []
+    whole = VerletRun(scene, build_model(scene), False, checkpoint=states.append,
+                      checkpoint_every=1000).run()
+    assert len(whole.events) > 50 and {e.kind for e in whole.events} == {
+        "contact_close", "contact_open", "stop", "slip"}
+    for state in states[1:3]:
+        resumed = VerletRun(scene, build_model(scene), False).run(resume=state)
+        assert resumed.events == whole.events
+        assert np.array_equal(resumed.x_final, whole.x_final)

@@ -363,6 +363,12 @@ class VerletRun:
         state["thermo_lines"] = np.int64(getattr(self.thermo, "lines", 0))
         for name in FrameLog._FIELDS:  # the run's first frame, kept by the Result
             state[f"first_{name}"] = np.asarray(self.log.kept[name][0])
+        if self.event_log is not None:  # the events logged so far (output.events)
+            events = self.event_log.events
+            state["events_t"] = np.array([e.t for e in events], dtype=np.float64)
+            state["events_kind"] = np.array([verlet.EVENT_KINDS.index(e.kind) for e in events],
+                                            dtype=np.int8)
+            state["events_index"] = np.array([e.index for e in events], dtype=np.int64)
         return state
 
     def _restore(self, state: dict) -> None:
@@ -379,6 +385,12 @@ class VerletRun:
                         == 0 else np.asarray(state[f"first_{name}"]) for name in FrameLog._FIELDS),
                       initial=self.e0)
         self.log.resume(int(state["frames"]), float(state["max_error"]), first)
+        if self.event_log is not None:
+            from ..result import Event
+            self.event_log.events = [
+                Event(t, verlet.EVENT_KINDS[k], i) for t, k, i in zip(
+                    state["events_t"].tolist(), state["events_kind"].tolist(),
+                    state["events_index"].tolist())]
 
     def _finished(self) -> bool:
         """Every step is taken (the run ends here whatever else happens)."""
