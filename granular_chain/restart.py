@@ -13,11 +13,12 @@ published in RUN_DIR's place (a partial folder's destination), replacing it by a
 from __future__ import annotations
 
 import shutil
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .checkpoint import CHECKPOINT, load_checkpoint, scene_difference
-from .rundir import MARKER, OutputError, _foreign_files, _pid_alive, check_out, read_marker
+from .rundir import (MARKER, OutputError, _foreign_files, _pid_alive, check_out, read_marker,
+                     remove_files)
 
 __all__ = ["RestartPlan", "plan_restart"]
 
@@ -29,6 +30,7 @@ class RestartPlan:
     source: Path  #: the incomplete run folder (or partial folder) with the checkpoint
     out: Path  #: where the continued run is published
     partial: bool  #: the source is a killed run's hidden partial folder (removed after)
+    _copied: list = field(default_factory=list)  #: files prepare() copied, relative
 
     def prepare(self, tmp: Path) -> dict:
         """Copy the source's files into the new run's folder ``tmp``; the checkpoint state."""
@@ -39,15 +41,21 @@ class RestartPlan:
                     continue
                 (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy2(path, tmp / rel)
+                self._copied.append(rel.as_posix())
             state, _ = load_checkpoint(tmp)
         except (OSError, ValueError) as exc:
             raise OutputError(f"--restart {self.source}: cannot be read ({exc})") from None
         return state
 
     def finish(self) -> None:
-        """After publishing: a partial folder continued elsewhere is no longer needed."""
-        if self.partial and self.source.exists():
-            shutil.rmtree(self.source, ignore_errors=True)
+        """After publishing: a partial folder continued elsewhere is no longer needed.
+
+        Only the files copied into the continued run (now published) and the
+        marker are removed, then the folders left empty; anything else stays.
+        """
+        if not self.partial or not self.source.exists():
+            return
+        remove_files(self.source, [*self._copied, MARKER])
 
 
 def plan_restart(args, scene) -> RestartPlan:

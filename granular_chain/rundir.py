@@ -30,7 +30,8 @@ from typing import Iterable, Optional, Sequence
 import yaml
 
 __all__ = ["MARKER", "OutputError", "RunFolder", "default_out", "read_marker", "check_out",
-           "check_new_files", "adopt_files", "write_text_atomic", "stale_partials"]
+           "check_new_files", "adopt_files", "write_text_atomic", "stale_partials",
+           "remove_files"]
 
 MARKER = "run.json"
 ENGINE = "granular_chain"
@@ -268,18 +269,22 @@ def _remove_run(folder: Path) -> None:
     Anything else found there is left in place, and the folder with it.
     """
     marker = read_marker(folder)
-    if marker is None:
-        return
-    for rel in marker.get("files", []):
-        target = folder / rel
+    if marker is not None:
+        remove_files(folder, [*marker.get("files", []), MARKER])
+
+
+def remove_files(folder: Path, files) -> None:
+    """Remove the listed files (paths relative to ``folder``), then the folders left
+    empty; anything not listed stays, and the folders that hold it."""
+    for rel in files:
+        target = Path(folder) / rel
         if target.is_file() or target.is_symlink():
             target.unlink()
-    (folder / MARKER).unlink(missing_ok=True)
     for root, _, _ in os.walk(folder, topdown=False):  # children before their parents
         try:
             os.rmdir(root)
         except OSError:
-            pass  # not empty: holds something the engine did not write
+            pass  # not empty: holds something that is not the engine's
 
 
 def _remove_stale_partials(parent: Path, name: str) -> None:
