@@ -6,43 +6,14 @@ every way a run can end has its own), a human ``message`` and ``success``.
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
 
+from .codes import Status
+
 __all__ = ["Status", "Event", "EnergyLedger", "Result"]
-
-
-class Status(enum.IntEnum):
-    """How a run ended. Non-negative values are successes."""
-
-    T_END = 0  #: reached t_end
-    SEPARATED = 1  #: the watched contact opened (stop: separation)
-    AT_REST = 2  #: every granule at rest (stop: rest)
-    MAX_STEPS = -1  #: refused to take more than run.max_steps steps
-    NONFINITE = -2  #: NaN or Inf appeared in the state
-    MAX_EVENTS = -3  #: event stepper: more than run.max_events events
-    ZENO = -4  #: event stepper: events accumulate at a finite time
-    UNSTABLE = -5  #: the energy ledger stopped balancing (error above the initial energy)
-    OVERLAP = -6  #: an overlap grew beyond a granule's radius: the contact model no longer applies
-    INTERRUPTED = -7  #: stopped by SIGINT (Ctrl-C) or SIGTERM; the result holds what was computed
-    INACCURATE = -8  #: the run ended, but its energy ledger missed the stepper's promised tolerance
-
-    @property
-    def success(self) -> bool:
-        return self.value >= 0
-
-    def __str__(self) -> str:
-        """The lower-case name (``t_end``, ``separated``...), as summary.json writes it."""
-        return self.name.lower()
-
-    def __format__(self, spec: str) -> str:
-        # Integer presentation types keep the number ({s:d}); anything else the name.
-        if spec and spec[-1] in "bdnoxX":
-            return format(int(self), spec)
-        return format(str(self), spec)
 
 
 def _need(module: str, extra: str, what: str):

@@ -107,6 +107,7 @@ import numba
 import numpy as np
 from numba import literally
 
+from ..codes import EVENT_KINDS, EventKind  # noqa: F401  (EVENT_KINDS re-exported)
 from ..forces import wall_forces
 from ..laws.contact import contact_force
 from ..laws.friction import at_rest_by, coulomb_kick, free_kick, viscous_drift
@@ -139,8 +140,8 @@ STOP_ON_SEPARATION = 1
 STOP_ON_REST = 2
 
 # Indices into the event-count array.
-EV_CLOSE, EV_OPEN, EV_STOP, EV_SLIP = 0, 1, 2, 3
-EVENT_KINDS = ("contact_close", "contact_open", "stop", "slip")
+EV_CLOSE, EV_OPEN, EV_STOP, EV_SLIP = (int(k) for k in EventKind)
+
 
 
 @numba.njit(cache=True)
