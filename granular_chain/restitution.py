@@ -47,7 +47,8 @@ import numpy as np
 from scipy import optimize
 
 __all__ = ["Restitution", "linear_dashpot", "choose_damping", "restitution_reference",
-           "hertz_contact_time", "viscoelastic_series", "VISCOELASTIC_C1",
+           "contact_time_scale", "hertz_contact_time", "viscoelastic_group",
+           "viscoelastic_series", "VISCOELASTIC_C1",
            "VISCOELASTIC_C2", "viscoelastic_c1_exact", "column_overlaps"]
 
 
@@ -223,15 +224,27 @@ def _rational_exponent(n) -> Fraction:
 class _Law:
     """Scaled contact law ``X'' = -X^(n-1) - g D'``, D = X (linear) or X^(n-1) (viscoelastic)."""
 
-    n: object       # mpf, exact p/q
+    n: object       # mpf, p/q
     q: int          # denominator of n
     visco: bool
     g: object       # scaled damping coefficient (mpf)
+    qn: int = 0     # q n = p and q (n - 1), exact integers
+    qa: int = 0
 
     def force(self, x, v):
         """Scaled force ``-X''`` at overlap x > 0 and rate v."""
         p = x ** (self.n - 1)
         return p + self.g * ((self.n - 1) * p / x * v if self.visco else v)
+
+
+def _power_coefficient(a, x, P, m):
+    """Coefficient m of ``P = X^a`` from ``x_0..x_m`` and ``P_0..P_(m-1)``.
+
+    From ``X P' = a X' P``: ``m x_0 P_m = sum_{j=1..m} ((a+1) j - m) x_j P_(m-j)``.
+    """
+    xs, ps = x[1:m + 1], P[m - 1::-1]
+    jx = [j * xj for j, xj in enumerate(xs, 1)]
+    return ((a + 1) * mp.fdot(jx, ps) - m * mp.fdot(xs, ps)) / (m * x[0])
 
 
 def _end_series(law, v0, g, nterms):
@@ -244,7 +257,7 @@ def _end_series(law, v0, g, nterms):
     earlier ones (``P = Z^(n-1)`` by the power recurrence of a series).
     """
     q, n = law.q, law.n
-    qn, qa = int(q * n), int(q * (n - 1))
+    qn, qa = law.qn, law.qa
     a = n - 1
     z = [mp.mpf(v0)] + [mp.mpf(0)] * nterms
     P = [z[0] ** a] + [mp.mpf(0)] * nterms
@@ -258,7 +271,7 @@ def _end_series(law, v0, g, nterms):
         if M >= qn:
             s -= P[M - qn] / ((e1 - 1) * e1)
         z[M] = s
-        P[M] = mp.fsum((a * j - (M - j)) * z[j] * P[M - j] for j in range(1, M + 1)) / (M * z[0])
+        P[M] = _power_coefficient(a, z, P, M)
     return z
 
 
@@ -275,8 +288,8 @@ def _series_reach(z, q, tol):
 def _series_state(z, q, tau):
     """``(X, dX/dtau)`` of :func:`_end_series` at ``tau``."""
     s = tau ** (mp.mpf(1) / q)
-    x = mp.polyval(z[::-1], s) * tau
-    v = mp.polyval([zm * (1 + mp.mpf(m) / q) for m, zm in enumerate(z)][::-1], s)
+    x = _horner(z, s) * tau
+    v = _horner([zm * (1 + mp.mpf(m) / q) for m, zm in enumerate(z)], s)
     return x, v
 
 
@@ -287,17 +300,25 @@ def _taylor(law, x0, v0, order):
     P = [x0 ** a]
     for k in range(order - 1):
         m = k + 1  # P_m from x_0..x_m (X P' = a X' P)
-        P.append(mp.fsum((a * j - (m - j)) * x[j] * P[m - j] for j in range(1, m + 1)) / (m * x0))
+        P.append(_power_coefficient(a, x, P, m))
         damp = (k + 1) * (P[k + 1] if law.visco else x[k + 1])
         x.append(-(P[k] + law.g * damp) / ((k + 1) * (k + 2)))
     return x
 
 
+def _horner(c, h):
+    """``sum c_j h^j`` (coefficients in ascending order)."""
+    acc = c[-1]
+    for cj in reversed(c[:-1]):
+        acc = acc * h + cj
+    return acc
+
+
 def _poly(c, h, d=0):
     """d-th derivative of ``sum c_j h^j`` at h."""
     if d:
-        c = [mp.ff(j, d) * cj for j, cj in enumerate(c)][d:]
-    return mp.polyval(c[::-1], h)
+        c = [math.perm(j, d) * cj for j, cj in enumerate(c)][d:]
+    return _horner(c, h)
 
 
 def _taylor_step_size(x, tol):
@@ -464,7 +485,7 @@ def restitution_reference(v, k, m_eff, n=2, model="linear", coefficient=0.0, ten
         tau_u = contact_time_scale(mp.mpf(v), mp.mpf(k), mp.mpf(m_eff), nm)
         visco = model == "viscoelastic"
         g = mp.mpf(coefficient) / tau_u if visco else mp.mpf(coefficient) * tau_u / m_eff
-        law = _Law(nm, fr.denominator, visco, g)
+        law = _Law(nm, fr.denominator, visco, g, fr.numerator, fr.numerator - fr.denominator)
         e, t, ended = _integrate(law, tensile or g == 0, dps + 5, mp.mpf(t_max))
         return Restitution(+e, +(t * tau_u), ended)
 
@@ -487,31 +508,50 @@ def hertz_contact_time(v, k, m_eff, n=2.5):
 # Viscoelastic Hertz at small speed
 # ----------------------------------------------------------------------------
 def viscoelastic_c1_exact():
-    """``C1 = sqrt(pi) Gamma(3/5) / (2^(1/5) 5^(2/5) Gamma(21/10))`` = 1.1534439... (mpf).
+    """``C1 = sqrt(pi) Gamma(3/5) / (2^(1/5) 5^(2/5) Gamma(21/10))`` = 1.15344886... (mpf).
 
-    First-order perturbation of the undamped Hertz contact: the energy lost is
-    ``int (3/2) A k X^(1/2) X'^2 dt`` along the elastic orbit, which gives this
-    closed form; :func:`restitution_reference` reproduces it (tests).
+    First order in the damping: the energy lost along the undamped Hertz orbit,
+    ``1 - e = 2 g int_0^Xmax (3/2) X^(1/2) sqrt(1 - (4/5) X^(5/2)) dX`` (scaled units of
+    :func:`contact_time_scale`, ``g = A/tau_u``), is ``C1 * (3/2) g``; the integral is a
+    Beta function.  :func:`restitution_reference` reproduces it (tests).
     """
     return (mp.sqrt(mp.pi) * mp.gamma(mp.mpf(3) / 5)
             / (mp.mpf(2) ** (mp.mpf(1) / 5) * mp.mpf(5) ** (mp.mpf(2) / 5) * mp.gamma(mp.mpf(21) / 10)))
 
 
-#: Series coefficients as printed by Schwager and Poeschel (PRE 78, 021302, 2008).
+#: Series coefficients as printed by Schwager and Poeschel (PRE 78, 021302, 2008);
+#: ``C2 = (3/5) C1^2``.
 VISCOELASTIC_C1 = 1.15344
 VISCOELASTIC_C2 = 0.79826
+
+
+def viscoelastic_group(v, k, A, m_eff):
+    """Expansion variable ``G = (3/2) A (k/m_eff)^(2/5) v^(1/5)`` of the viscoelastic series.
+
+    For ``m_eff xi'' = -k xi^(3/2) - (3/2) A k xi^(1/2) xi'`` the only dimensionless
+    group is ``A (k/m_eff)^(2/5) v^(1/5)`` (= ``A/tau_u``); the factor 3/2 makes
+    ``1 - e = C1 G + O(G^2)`` with ``C1 = 1.15344`` (i.e. the series' ``A alpha^(2/5)``
+    with ``alpha = (3/2)^(5/2) k/m_eff``), as the reference integration confirms
+    (without it the slope would be 1.5 C1 = 1.7302).
+    """
+    return 1.5 * A * (k / m_eff) ** 0.4 * np.asarray(v, dtype=float) ** 0.2
 
 
 def viscoelastic_series(v, k, A, m_eff, terms=2):
     """Small-speed series of the viscoelastic-Hertz restitution coefficient.
 
-    For ``m_eff xi'' = -k xi^(3/2) - (3/2) A k xi^(1/2) xi'`` the only dimensionless group
-    is ``G = A (k/m_eff)^(2/5) v^(1/5)`` (``A`` in s, ``k`` in N/m^(3/2), ``v`` in m/s), and
+    For ``m_eff xi'' = -k xi^(3/2) - (3/2) A k xi^(1/2) xi'`` (``A`` in s, ``k`` in
+    N/m^(3/2), ``v`` in m/s) and ``G = (3/2) A (k/m_eff)^(2/5) v^(1/5)``
+    (:func:`viscoelastic_group`):
 
-        ``e = 1 - C1 G + C2 G^2 - ...``,  ``C1 = 1.15344``, ``C2 = 0.79826``
+        ``e = 1 - C1 G + C2 G^2 + O(G^(5/2))``,  ``C1 = 1.15344``, ``C2 = 0.79826``
 
-    (Schwager and Poeschel, Phys. Rev. E 78, 021302 (2008); their
-    ``alpha = k/m_eff`` for two spheres, so ``G = A alpha^(2/5) v^(1/5)``).
+    (Schwager and Poeschel, Phys. Rev. E 78, 021302 (2008)), evaluated with all the
+    digits of ``C1`` (:func:`viscoelastic_c1_exact`) and ``C2 = (3/5) C1^2``, which
+    round to the printed values.  The reference
+    integration gives the same ``C1`` and ``C2`` for both end conditions; ending at
+    zero force (``tensile=False``) instead of zero overlap changes ``e`` only at order
+    ``G^(5/2)`` (the overlap at separation is ``(3/2) A v_end`` in scaled units).
 
     Parameters
     ----------
@@ -529,10 +569,11 @@ def viscoelastic_series(v, k, A, m_eff, terms=2):
     """
     if terms not in (1, 2):
         raise ValueError("terms must be 1 or 2")
-    G = A * (k / m_eff) ** 0.4 * np.asarray(v, dtype=float) ** 0.2
-    e = 1 - VISCOELASTIC_C1 * G
+    G = viscoelastic_group(v, k, A, m_eff)
+    c1 = float(viscoelastic_c1_exact())
+    e = 1 - c1 * G
     if terms == 2:
-        e = e + VISCOELASTIC_C2 * G ** 2
+        e = e + 0.6 * c1 ** 2 * G ** 2
     return e
 
 
