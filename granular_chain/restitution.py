@@ -76,9 +76,9 @@ class Restitution:
 # n = 2, linear dashpot: closed forms
 # ----------------------------------------------------------------------------
 def _damping_ratio_terms(b, lib):
-    """Return ``(beta t_c w0/beta, w0 t_c)`` pieces for the force-zero end: ``(L, w0 t_c)``.
+    """``(L, w0 t_c)`` of the force-zero end at damping ratio b.
 
-    ``L = -ln e = b * w0 t_c`` with ``w0 t_c = 2 acos(b)/sqrt(1-b^2)`` (b < 1),
+    ``L = -ln e = beta t_c = b * w0 t_c`` with ``w0 t_c = 2 acos(b)/sqrt(1-b^2)`` (b < 1),
     ``2`` (b = 1), ``2 acosh(b)/sqrt(b^2-1)`` (b > 1).  Written so that no digits cancel
     near ``b = 1``: ``acos(b) = 2 asin(sqrt((1-b)/2))``, ``acosh(b) = log1p(u + sqrt(u(u+2)))``
     with ``u = b - 1``.
@@ -226,10 +226,10 @@ class _Law:
 
     n: object       # mpf, p/q
     q: int          # denominator of n
+    qn: int         # q n = p, exact
+    qa: int         # q (n - 1) = p - q, exact
     visco: bool
     g: object       # scaled damping coefficient (mpf)
-    qn: int = 0     # q n = p and q (n - 1), exact integers
-    qa: int = 0
 
     def force(self, x, v):
         """Scaled force ``-X''`` at overlap x > 0 and rate v."""
@@ -250,7 +250,7 @@ def _power_coefficient(a, x, P, m):
 def _end_series(law, v0, g, nterms):
     """Coefficients ``z_m`` of ``X(tau) = tau * sum z_m s^m``, ``s = tau^(1/q)``.
 
-    The motion started at ``X = 0`` with speed ``v0 > 0`` and damping ``g`` (negative
+    The motion starts at ``X = 0`` with speed ``v0 > 0`` and damping ``g`` (negative
     for the time-reversed end of a contact).  ``X^(n-1)`` is not analytic at ``X = 0``
     but ``X`` is a power series in ``s``: from the integral equation
     ``X = v0 tau - g int D - int (tau - sigma) X^(n-1)`` each ``z_M`` follows from
@@ -348,8 +348,9 @@ def _first_crossing(f, a, b, tol, samples=16):
 def _start(law, tol, nterms, tensile):
     """State ``(t, x, v)`` where the start series hands over to Taylor stepping, or the end.
 
-    Returns ``(t, x, v, None)``, or ``(t, x, v, "end")`` when the force already
-    vanishes inside the series' reach (very heavy damping, ``tensile=False``).
+    Returns ``(t, x, v, None)``, or ``(t, x, v, "end")`` when the contact already
+    ends inside the series' reach (the force vanishes under very heavy damping,
+    ``tensile=False``; or X returns to 0).  Roots before ``reach/1024`` are not seen.
     """
     z = _end_series(law, 1, law.g, nterms)
     reach = _series_reach(z, law.q, tol)
@@ -485,7 +486,7 @@ def restitution_reference(v, k, m_eff, n=2, model="linear", coefficient=0.0, ten
         tau_u = contact_time_scale(mp.mpf(v), mp.mpf(k), mp.mpf(m_eff), nm)
         visco = model == "viscoelastic"
         g = mp.mpf(coefficient) / tau_u if visco else mp.mpf(coefficient) * tau_u / m_eff
-        law = _Law(nm, fr.denominator, visco, g, fr.numerator, fr.numerator - fr.denominator)
+        law = _Law(nm, fr.denominator, fr.numerator, fr.numerator - fr.denominator, visco, g)
         e, t, ended = _integrate(law, tensile or g == 0, dps + 5, mp.mpf(t_max))
         return Restitution(+e, +(t * tau_u), ended)
 

@@ -17,7 +17,7 @@ K, M, V = 3.7, 0.45, 2.3
 C_CRIT = 2 * math.sqrt(K * M)
 
 
-@pytest.mark.parametrize("b", [0.05, 0.5, 0.9, 1.0, 2.5])
+@pytest.mark.parametrize("b", [0.05, 0.5, 0.9, 1.0, 2.5, 1e3])
 @pytest.mark.parametrize("tensile", [True, False])
 def test_linear_dashpot_closed_form_matches_reference(b, tensile):
     """n = 2: e and t_c, float to 1e-14 and mpmath to 1e-30, under/critical/over-damped."""
@@ -34,6 +34,17 @@ def test_linear_dashpot_closed_form_matches_reference(b, tensile):
         assert abs(ref.contact_time - exact.contact_time) < 1e-30 * exact.contact_time
     assert flt.e == pytest.approx(float(exact.e), rel=1e-14, abs=0)
     assert flt.contact_time == pytest.approx(float(exact.contact_time), rel=1e-14, abs=0)
+
+
+@pytest.mark.parametrize("tensile", [True, False])
+def test_viscoelastic_at_n2_is_the_linear_dashpot(tensile):
+    """n = 2: A d/dt(k xi) = (A k) xi', so the viscoelastic reference is the c = A k closed form."""
+    A = 0.1
+    ref = R.restitution_reference(V, K, M, 2, "viscoelastic", A, tensile, dps=40)
+    with mp.workdps(40):
+        exact = R.linear_dashpot(mp.mpf(A) * mp.mpf(K), K, M, tensile, dps=40)
+        assert abs(ref.e - exact.e) < 1e-30 * exact.e
+        assert abs(ref.contact_time - exact.contact_time) < 1e-30 * exact.contact_time
 
 
 def _schwager_poeschel(beta, w0):
