@@ -447,7 +447,11 @@ def restitution_reference(v, k, m_eff, n=2, model="linear", coefficient=0.0, ten
       for ``tensile=True`` and non-integer ``n`` the last stretch is the time-reversed
       start series, matched in overlap and rate (unknowns: ``e`` and the time left).
 
-    No damping with ``tensile=False`` is the same contact as ``tensile=True``.
+    No damping with ``tensile=False`` is the same contact as ``tensile=True``.  The
+    Taylor steps are explicit: a heavily overdamped contact (scaled ``g >> 1``) needs
+    steps of order ``1/g``, slow when its overlap never returns to zero (``t_max``).
+    Exponents with ``q > 2`` and ``tensile=True`` match the end by Newton on the
+    series and take seconds.
 
     Parameters
     ----------

@@ -17,9 +17,11 @@ K, M, V = 3.7, 0.45, 2.3
 C_CRIT = 2 * math.sqrt(K * M)
 
 
-@pytest.mark.parametrize("b", [0.05, 0.5, 0.9, 1.0, 2.5, 1e3])
-@pytest.mark.parametrize("tensile", [True, False])
-def test_linear_dashpot_closed_form_matches_reference(b, tensile):
+# (tensile, b = 1e3) is left out: the overlap never returns to zero and the explicit
+# Taylor reference, stiff there (steps ~ 1/b), would take minutes to reach t_max.
+@pytest.mark.parametrize("tensile, b", [(t, b) for t in (True, False) for b in (0.05, 0.5, 0.9, 1.0, 2.5)]
+                         + [(False, 1e3)])
+def test_linear_dashpot_closed_form_matches_reference(tensile, b):
     """n = 2: e and t_c, float to 1e-14 and mpmath to 1e-30, under/critical/over-damped."""
     c = b * C_CRIT
     ref = R.restitution_reference(V, K, M, 2, "linear", c, tensile, dps=40, t_max=40)
