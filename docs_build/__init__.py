@@ -1,0 +1,1 @@
+"""Generators and mkdocs hooks of the documentation site (not part of the package)."""

@@ -1,0 +1,258 @@
+"""The scene reference page, generated from the pydantic schema of scene files.
+
+Every field of ``granular_chain.scene.Scene.model_json_schema()`` becomes one row:
+dotted path, type, default, units, description and an example. Descriptions,
+types, defaults and bounds come from the schema; examples from the scene files
+under ``scenarios/`` where one sets the field. Units are not yet part of the
+schema, so :data:`UNITS` maps each dotted path to its dimension; a field missing
+from it stops the build (:class:`MissingEntry`), so a new field cannot be
+published without units.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Dimension of each field, as "scaled unit (SI unit under ``units: physical``)".
+#: A schema property ``units`` (``json_schema_extra``) takes precedence.
+UNITS = {
+    "name": "-", "units": "-",
+    "granules.count": "-",
+    "granules.mass": "mass (kg)",
+    "granules.radius": "length (m)",
+    "granules.gap": "length (m)",
+    "granules.velocity": "velocity (m/s)",
+    "granules.friction.kinetic": "force (N)",
+    "granules.friction.static": "force (N)",
+    "granules.friction.viscous": "force / velocity (N s/m)",
+    "granules.material.young": "pressure (Pa)",
+    "granules.material.poisson": "-",
+    "granules.state.file": "-", "granules.state.frame": "-",
+    "contacts.exponent": "-",
+    "contacts.stiffness": "force / length^(n-1) (N/m^(n-1))",
+    "walls.left.gap": "length (m)", "walls.right.gap": "length (m)",
+    "walls.left.stiffness": "force / length^(n-1) (N/m^(n-1))",
+    "walls.right.stiffness": "force / length^(n-1) (N/m^(n-1))",
+    "walls.left.exponent": "-", "walls.right.exponent": "-",
+    "run.stepper": "-", "run.dt": "time (s)", "run.t_end": "time (s)", "run.stop": "-",
+    "run.stop_contact": "-", "run.max_steps": "steps", "run.energy_tolerance": "-",
+    "run.check_dt": "-", "run.rtol": "-", "run.atol": "length, velocity (m, m/s)",
+    "run.max_events": "events",
+    "output.every": "steps", "output.dt": "time (s)", "output.trajectory": "-",
+    "output.vtk": "-", "output.csv": "-", "output.events": "-", "output.plots": "-",
+    "output.checkpoint_every": "steps", "output.thermo": "steps",
+    # fields of a seeded distribution (any per-granule field may be one)
+    "uniform.distribution": "-", "uniform.low": "as the field", "uniform.high": "as the field",
+    "uniform.seed": "-",
+    "normal.distribution": "-", "normal.mean": "as the field", "normal.std": "as the field",
+    "normal.seed": "-",
+    "lognormal.distribution": "-", "lognormal.median": "as the field", "lognormal.sigma": "-",
+    "lognormal.seed": "-",
+}
+
+#: Examples of fields no scene under scenarios/ sets and whose default is empty.
+EXAMPLES = {
+    "granules.friction.static": 0.35,
+    "granules.material.young": 2.0e11,
+    "granules.material.poisson": 0.3,
+    "granules.state.file": "outputs/chain_striker/trajectory.h5",
+    "run.dt": 1.0e-3,
+    "run.energy_tolerance": 1.0e-9,
+    "output.every": 100,
+    "output.dt": 0.05,
+    "output.checkpoint_every": 100000,
+    "output.thermo": 1000,
+    "uniform.distribution": "uniform", "uniform.low": 0.9, "uniform.high": 1.1,
+    "uniform.seed": 1,
+    "normal.distribution": "normal", "normal.mean": 1.0, "normal.std": 0.05, "normal.seed": 2,
+    "lognormal.distribution": "lognormal", "lognormal.median": 1.0, "lognormal.sigma": 0.1,
+    "lognormal.seed": 3,
+}
+
+
+class MissingEntry(KeyError):
+    """A schema field without units or example: the page would be incomplete."""
+
+
+def scene_schema() -> dict:
+    """The JSON Schema of scene files, from the package (the one place it is defined)."""
+    from granular_chain.scene import Scene
+    return Scene.model_json_schema()
+
+
+def _resolve(schema: dict, node: dict) -> dict:
+    ref = node.get("$ref")
+    return schema["$defs"][ref.rsplit("/", 1)[1]] if ref else node
+
+
+def _alternatives(node: dict) -> list[dict]:
+    return node.get("anyOf") or node.get("oneOf") or [node]
+
+
+def _is_recipe(schema: dict, node: dict) -> bool:
+    return "distribution" in _resolve(schema, node).get("properties", {})
+
+
+def _submodel(schema: dict, node: dict) -> dict | None:
+    """The object schema a property nests (a model, possibly Optional), else None."""
+    for alt in _alternatives(node):
+        target = _resolve(schema, alt)
+        if "properties" in target and not _is_recipe(schema, alt):
+            return target
+    return None
+
+
+def walk(schema: dict, node: dict | None = None, prefix: str = "") -> Iterator[tuple[str, dict, bool]]:
+    """Every field as (dotted path, property schema, required), depth first.
+
+    Models nested in a field (``granules.friction``) are descended into;
+    seeded distributions are not (see :func:`recipe_fields`).
+    """
+    node = schema if node is None else node
+    required = set(node.get("required", ()))
+    for name, prop in node.get("properties", {}).items():
+        path = f"{prefix}{name}"
+        sub = _submodel(schema, prop)
+        if sub is None:
+            yield path, prop, name in required
+        else:
+            yield from walk(schema, sub, path + ".")
+
+
+def recipe_fields(schema: dict) -> Iterator[tuple[str, dict, bool]]:
+    """Fields of the seeded distributions as ``<kind>.<field>`` (e.g. ``normal.std``)."""
+    for model in schema["$defs"].values():
+        props = model.get("properties", {})
+        if "distribution" in props:
+            kind = props["distribution"]["const"]
+            for name, prop in props.items():
+                yield f"{kind}.{name}", prop, name in model.get("required", ())
+
+
+def _bounds(node: dict) -> str:
+    marks = {"gt": ">", "exclusiveMinimum": ">", "ge": ">=", "minimum": ">=",
+             "lt": "<", "exclusiveMaximum": "<", "le": "<=", "maximum": "<=",
+             "minLength": "length >="}
+    return ", ".join(f"{m} {node[k]}" for k, m in marks.items() if k in node)
+
+
+def type_text(schema: dict, node: dict) -> str:
+    """A short type for a property: ``number (> 0)``, ``list of number``, ``'a' | 'b'``."""
+    parts = []
+    for alt in _alternatives(node):
+        if _is_recipe(schema, alt):
+            if "seeded distribution" not in parts:
+                parts.append("seeded distribution")
+            continue
+        if "discriminator" in alt:
+            parts.append("seeded distribution")
+            continue
+        kind = alt.get("type")
+        if "const" in alt:
+            parts.append(repr(alt["const"]))
+        elif "enum" in alt:
+            parts.append(" | ".join(repr(v) for v in alt["enum"]))
+        elif kind == "array":
+            parts.append("list of " + type_text(schema, alt["items"]))
+        elif kind == "object":
+            parts.append("mapping {index: " + type_text(schema, alt.get("additionalProperties", {}))
+                         + "}")
+        elif kind == "null":
+            continue
+        elif kind:
+            b = _bounds(alt)
+            parts.append(f"{kind} ({b})" if b else kind)
+    return " or ".join(dict.fromkeys(parts)) or "any"
+
+
+def scenario_examples() -> dict:
+    """The first value each dotted path takes in the scene files under scenarios/."""
+    found = {}
+
+    seen: dict[str, list] = {}
+
+    def visit(data, prefix, source):
+        mapping = isinstance(data, dict) and data and all(isinstance(k, int) for k in data)
+        if isinstance(data, dict) and not mapping and "distribution" not in data:
+            for key, value in data.items():
+                visit(value, f"{prefix}.{key}" if prefix else str(key), source)
+        else:
+            seen.setdefault(prefix, []).append((_cell(data), source))
+
+    for path in sorted((ROOT / "scenarios").glob("*.yaml")):
+        visit(yaml.safe_load(path.read_text()), "", path.name)
+    # the shortest value each field takes: an example, not a data dump
+    return {path: min(values, key=lambda vs: len(vs[0])) for path, values in seen.items()}
+
+
+def _cell(value) -> str:
+    """A value as inline code, in YAML flow style (as it is written in a scene)."""
+    text = value if isinstance(value, str) else yaml.safe_dump(
+        value, default_flow_style=True, width=1 << 16).strip().removesuffix("...").strip()
+    return "`" + text.replace("|", "\\|") + "`"
+
+
+def _row(schema, path, prop, required, examples) -> str:
+    units = prop.get("units", UNITS.get(path))
+    if units is None:
+        raise MissingEntry(f"scene field {path}: no units (add it to docs_build/scene_reference.py UNITS)")
+    if path in examples:
+        value, source = examples[path]
+        example = f"{value} ({source})"
+    elif path in EXAMPLES:
+        example = _cell(EXAMPLES[path])
+    elif prop.get("default") is not None:
+        example = _cell(prop["default"])
+    else:
+        raise MissingEntry(f"scene field {path}: no example (set it in a scenario or EXAMPLES)")
+    default = "required" if required else _cell(prop.get("default"))
+    description = " ".join(prop.get("description", "").split()).replace("|", "\\|")
+    return (f"| `{path}` | {type_text(schema, prop).replace('|', '&#124;')} | {default} | "
+            f"{units} | {description} | {example} |")
+
+
+HEADER = "| field | type | default | units | description | example |\n|---|---|---|---|---|---|"
+
+
+def render() -> str:
+    """The whole scene reference page (markdown)."""
+    schema = scene_schema()
+    examples = scenario_examples()
+    groups: dict[str, list[str]] = {}
+    for path, prop, required in walk(schema):
+        top = path.split(".")[0] if "." in path else "scene"
+        groups.setdefault(top, []).append(_row(schema, path, prop, required, examples))
+    lines = [
+        "# Scene reference",
+        "",
+        "A scene is a YAML file validated by the schema below (`granular-chain schema` prints it",
+        "as JSON Schema). This page is generated from that schema when the site is built:",
+        "every field, its type and bounds, its default, its units, its description and an",
+        "example (from the file under `scenarios/` named beside it, where one sets the field).",
+        "",
+        "Units: `units: scaled` (the default) measures everything in the paper's Appendix-A",
+        "units (mass m = 1, force coefficient 1, impact speed v0 = 1, see [Theory](../theory.md#units-and-scaling));",
+        "`units: physical` reads SI, given in parentheses. `-` marks a pure number or a name.",
+        "Per-granule fields take one value, a list of N values, or a seeded distribution;",
+        "per-contact fields one value or N - 1 values. Any field can be changed for one run",
+        "with `--set dotted.path=value`.",
+        "",
+    ]
+    for top, rows in groups.items():
+        lines += [f"## `{top}`" if top != "scene" else "## Top level", "", HEADER, *rows, ""]
+    lines += ["## Seeded distributions", "",
+              "A per-granule field (`granules.mass`, `radius`, `gap`, `velocity`, `friction.*`)",
+              "may be a mapping that draws its N values from a seeded generator, e.g.",
+              "`mass: {distribution: normal, mean: 1.0, std: 0.05, seed: 2}`.", "",
+              HEADER]
+    lines += [_row(schema, p, prop, req, {}) for p, prop, req in recipe_fields(schema)]
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    print(render())
