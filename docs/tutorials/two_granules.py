@@ -37,12 +37,12 @@ for code, outcome in enumerate(OUTCOMES):
     print(f"  {outcome.name:<28s} {np.count_nonzero(m.outcome == code):5d} points")
 
 colours = ["#4477aa", "#66ccee", "#228833", "#ccbb44", "#ee6677", "#aa3377"]
-fig, ax = plt.subplots(figsize=(5.2, 4.2), layout="constrained")
+fig, ax = plt.subplots(figsize=(7.0, 4.0), layout="constrained")
 ax.pcolormesh(grid, grid, m.outcome, cmap=ListedColormap(colours), vmin=-0.5, vmax=5.5,
               shading="nearest")
 for code, outcome in enumerate(OUTCOMES):
     if np.any(m.outcome == code):
         ax.plot([], [], "s", color=colours[code], label=outcome.name.replace("_", " "))
 ax.set(xlabel=r"$\eta_1$", ylabel=r"$\eta_2$", title=r"Outcome of the collision, $n = 2$")
-ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
+fig.legend(loc="outside right upper", fontsize=8)
 fig.savefig("outcomes.png", dpi=110)
