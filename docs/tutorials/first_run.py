@@ -15,9 +15,9 @@ import xarray as xr
 pv.OFF_SCREEN = True
 SCENE = Path(__file__).resolve().parents[2] / "scenarios" / "chain_striker.yaml"
 
-# The same as: granular-chain run scenarios/chain_striker.yaml --set run.t_end=40 ...
+# The same as: granular-chain run scenarios/chain_striker.yaml --set run.t_end=40 --set output.every=40 --vtk --out run
 subprocess.run([sys.executable, "-m", "granular_chain", "run", str(SCENE),
-                "--set", "run.t_end=40", "--set", "output.every=20",
+                "--set", "run.t_end=40", "--set", "output.every=40",
                 "--vtk", "--out", "run", "--quiet"], check=True)
 
 print("run/")
