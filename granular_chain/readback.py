@@ -5,6 +5,11 @@ A run folder written by ``granular-chain run`` holds ``trajectory.h5`` (every
 frame, the final state, events and status; see :mod:`.writers.trajectory`)
 and ``summary.json``. With the trajectory turned off only the summary exists;
 the Result then has the final state, status and counts and no frames.
+
+The chain constants of a run read back (``result.model``: radii, masses,
+contact laws, walls) are built from its stored scene by :func:`run_model`,
+once, when first asked for: a run started from a state file reads back even
+after that file is gone, and only what needs the constants reads it again.
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["read_run", "summary_info"]
+__all__ = ["read_run", "run_model", "summary_info"]
 
 
 def read_run(path):
@@ -55,6 +60,32 @@ def read_run(path):
         raise FileNotFoundError(f"{path}: not a run folder (no trajectory.h5, no summary.json)")
     result.scene = scene
     return result
+
+
+def run_model(result, scene=None):
+    """The chain constants of a run: ``result.model``, built from its scene if need be.
+
+    :func:`granular_chain.simulate` attaches the Model it ran; a Result read
+    back by :func:`read_run`, or put together by hand, gets it here, built once
+    from ``scene`` (default ``result.scene``) and attached. This is the one
+    place where a Result's Model is rebuilt from a Scene.
+
+    Parameters
+    ----------
+    result : Result
+    scene : Scene, optional
+
+    Returns
+    -------
+    Model or None
+        None when the Result has neither a Model nor a scene.
+    """
+    if result.model is None:
+        scene = scene if scene is not None else result.scene
+        if scene is not None:
+            from .model import build_model
+            result.model = build_model(scene)
+    return result.model
 
 
 _SUMMARY_KEYS = {"status", "status_code", "success", "message", "stepper", "dt", "t_final",
