@@ -7,9 +7,9 @@ and ``summary.json``. With the trajectory turned off only the summary exists;
 the Result then has the final state, status and counts and no frames.
 
 The chain constants of a run read back (``result.model``: radii, masses,
-contact laws, walls) are built from its stored scene by :func:`run_model`,
-once, when first asked for: a run started from a state file reads back even
-after that file is gone, and only what needs the constants reads it again.
+contact laws, walls) are built once from its stored scene (:func:`run_model`).
+A run started from a state file that is gone still reads back, without them:
+what needs them then says why.
 """
 
 from __future__ import annotations
@@ -35,7 +35,8 @@ def read_run(path):
     Result
         Frames, energy ledger, events, status, message and final state, every
         array equal bit for bit to the one the run computed; ``result.scene``
-        is the scene the run was made from (None if the file does not hold it).
+        is the scene the run was made from (None if the file does not hold it)
+        and ``result.model`` its chain constants.
 
     Raises
     ------
@@ -59,6 +60,12 @@ def read_run(path):
     else:
         raise FileNotFoundError(f"{path}: not a run folder (no trajectory.h5, no summary.json)")
     result.scene = scene
+    if scene is not None:
+        from .initial_state import StateFileError
+        try:
+            run_model(result)
+        except StateFileError:  # started from a state file that is gone: the frames
+            pass  # still read back; run_model says why when the constants are asked for
     return result
 
 

@@ -242,7 +242,8 @@ def render_frame(result, path, scene, time: Optional[float] = None,
                 smooth_shading=True,
                 scalar_bar_args={**bar, "title": "velocity", "position_x": 0.55})
     if x.size > 1:
-        overlap, force = contact_overlap_force(x, radius, k, n)[:2]  # no wall is drawn
+        # the neighbour contacts of the window (no wall is drawn)
+        overlap, force = contact_overlap_force(x, radius, k, n, law=model.features.law)[:2]
         closed = np.flatnonzero(overlap > 0.0)
         if closed.size:
             lines = np.column_stack([np.full(closed.size, 2), closed, closed + 1]).ravel()

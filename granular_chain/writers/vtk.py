@@ -109,18 +109,20 @@ class ContactForces(NamedTuple):
 
 
 @numba.njit(cache=True)
-def _law_forces(overlap, k, n, force):
-    """``force[i] = F(overlap[i])``: the contact law of :mod:`..laws.contact`, shapes (M,)."""
+def _law_forces(law, overlap, k, n, force):
+    """``force[i] = F(overlap[i])`` by the contact law ``law`` of :mod:`..laws.contact`
+    (LAW_LINEAR, LAW_HERTZ or LAW_POWER); arrays of shape (M,)."""
     for i in range(overlap.size):
-        force[i] = contact_force(LAW_POWER, overlap[i], k[i], n[i])
+        force[i] = contact_force(law, overlap[i], k[i], n[i])
 
 
-def contact_overlap_force(x, radius, k, n, walls=(None, None)) -> ContactForces:
+def contact_overlap_force(x, radius, k, n, walls=(None, None),
+                          law: int = LAW_POWER) -> ContactForces:
     """Overlap and compressive force of every contact, neighbours and walls.
 
-    The force is the contact law of :mod:`granular_chain.laws.contact` in its
-    general form ``k max(delta, 0)^(n - 1)``; the steppers' n = 2 and n = 5/2
-    forms give the same number to within one rounding. The overlaps are formed
+    The force is the contact law of :mod:`granular_chain.laws.contact`, the one
+    the steppers call: ``law`` is the run's (``model.features.law``); the general
+    power law ``k max(delta, 0)^(n - 1)`` by default. The overlaps are formed
     from positions, the steppers' from displacements: the two differ by a few
     ulps of the largest position.
 
@@ -134,6 +136,8 @@ def contact_overlap_force(x, radius, k, n, walls=(None, None)) -> ContactForces:
         Force coefficient and potential exponent of each contact.
     walls : (WallContact or None, WallContact or None)
         The left and right wall (:func:`wall_contacts`); none by default.
+    law : int
+        The contact law code of every contact and wall (:mod:`..laws.contact`).
 
     Returns
     -------
@@ -142,7 +146,7 @@ def contact_overlap_force(x, radius, k, n, walls=(None, None)) -> ContactForces:
     x = np.asarray(x, dtype=np.float64)
     overlap = np.ascontiguousarray(radius[:-1] + radius[1:] - (x[1:] - x[:-1]))
     force = np.empty(overlap.size)
-    _law_forces(overlap, np.ascontiguousarray(k, dtype=np.float64),
+    _law_forces(law, overlap, np.ascontiguousarray(k, dtype=np.float64),
                 np.ascontiguousarray(n, dtype=np.float64), force)
     left, right = walls
     wall_overlap = np.array([np.nan, np.nan])
@@ -152,7 +156,7 @@ def contact_overlap_force(x, radius, k, n, walls=(None, None)) -> ContactForces:
     if right is not None:  # delta_R = d0_R + u_(N-1)
         wall_overlap[1], wall_k[1], wall_n[1] = right.d0 + (x[-1] - right.x0), right.k, right.n
     wall_force = np.zeros(2)
-    _law_forces(np.nan_to_num(wall_overlap, nan=0.0), wall_k, wall_n, wall_force)
+    _law_forces(law, np.nan_to_num(wall_overlap, nan=0.0), wall_k, wall_n, wall_force)
     return ContactForces(overlap, force, wall_overlap, wall_force)
 
 
@@ -189,10 +193,13 @@ class VTKSeriesWriter:
         Compression of the binary appended data.
     walls : (WallContact or None, WallContact or None)
         The wall contacts (:func:`wall_contacts`); none by default.
+    law : int
+        The run's contact law code (``model.features.law``); the general power
+        law by default.
     """
 
     def __init__(self, folder, radius, mass, k, n, eta_static, *, compression="zlib",
-                 walls=(None, None)):
+                 walls=(None, None), law: int = LAW_POWER):
         import pyvista as pv  # heavy: imported only when a VTK series is asked for
         from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
@@ -203,6 +210,7 @@ class VTKSeriesWriter:
         self.n = np.asarray(n, dtype=np.float64)
         self.eta_static = np.asarray(eta_static, dtype=np.float64)
         self.walls = tuple(walls)
+        self.law = int(law)
         N = self.radius.size
         self._points = np.zeros((N, 3))
         lines = np.empty((max(N - 1, 0), 3), dtype=np.int64)
@@ -255,7 +263,7 @@ class VTKSeriesWriter:
         self._v[:] = v
         self._f[:] = f
         self._state[:] = friction_state(v, self.eta_static)
-        contacts = contact_overlap_force(x, self.radius, self.k, self.n, self.walls)
+        contacts = contact_overlap_force(x, self.radius, self.k, self.n, self.walls, self.law)
         if self.radius.size > 1:
             mesh.cell_data["overlap"][:] = contacts.overlap
             mesh.cell_data["force"][:] = contacts.force
@@ -327,7 +335,7 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
         frames = tqdm(frames, desc="writing VTK", unit="frame", leave=False, delay=1.0)
     with VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
                          model.eta_static, compression=compression,
-                         walls=wall_contacts(model)) as series:
+                         walls=wall_contacts(model), law=model.features.law) as series:
         for i in frames:
             if should_stop is not None and should_stop():
                 break
@@ -354,7 +362,7 @@ class VTKFrames:
                  resume_frames: Optional[int] = None):
         self.series = VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
                                       model.eta_static, compression=compression,
-                                      walls=wall_contacts(model))
+                                      walls=wall_contacts(model), law=model.features.law)
         self._indexed = -1.0
         if resume_frames is not None:
             self._resume(Path(folder), int(resume_frames))
