@@ -46,6 +46,7 @@ __all__ = [
     "read_scene_data",
     "parse_yaml_value",
     "MAX_SCENE_BYTES",
+    "STEPPER_OPTIONS",
     "SCALE_MIN",
     "SCALE_MAX",
 ]
@@ -334,8 +335,21 @@ class Output(_Strict):
         "at its first frame after each 1/20 of t_end.")
 
 
+#: The options only one stepper reads, by ``run.stepper``: ``run.dt`` and
+#: ``run.check_dt`` (Verlet's time step), ``output.events`` (Verlet's event log:
+#: the event stepper always logs) and ``output.thermo`` (steps between thermo
+#: lines: the event stepper writes one after each 1/20 of t_end); ``run.rtol``,
+#: ``run.atol`` and ``run.max_events`` (the event stepper's series tolerances and
+#: event cap). Every other field of ``run`` and ``output`` is read by both.
+STEPPER_OPTIONS = {
+    "verlet": ("run.dt", "run.check_dt", "output.events", "output.thermo"),
+    "event": ("run.rtol", "run.atol", "run.max_events"),
+}
+
+
 class Run(_Strict):
-    """How to step and when to stop."""
+    """How to step and when to stop (:data:`STEPPER_OPTIONS`: which fields belong to
+    one stepper)."""
 
     stepper: Literal["verlet", "event"] = Field("verlet", description="Time stepper.")
     dt: Optional[Positive] = Field(
@@ -440,6 +454,28 @@ class Scene(_Strict):
                                 f"is {self.run.stop_contact} but contacts are numbered 0..{n - 2}")
         if self.output.every is not None and self.output.dt is not None:
             raise _FieldProblem("output", "give either 'every' (steps) or 'dt' (time), not both")
+        return self
+
+    @model_validator(mode="after")
+    def _options_of_the_stepper(self, info: ValidationInfo) -> "Scene":
+        """Refuse an option the chosen stepper would ignore (:data:`STEPPER_OPTIONS`):
+        one set to anything but its default. The scene of a finished run, read back
+        for its record, is taken as it was written."""
+        if (info.context or {}).get("stored"):
+            return self
+        stepper = self.run.stepper
+        for owner, paths in STEPPER_OPTIONS.items():
+            if owner == stepper:
+                continue
+            for path in paths:
+                group, name = path.split(".")
+                section = getattr(self, group)
+                default = type(section).model_fields[name].default
+                if getattr(section, name) != default:
+                    unset = "remove it (or set it to null)" if default is None else "remove it"
+                    raise _FieldProblem(path, f"is read by the {owner} stepper only; with "
+                                        f"run.stepper: {stepper} it would be ignored: {unset}, "
+                                        f"or use run.stepper: {owner}")
         return self
 
 
