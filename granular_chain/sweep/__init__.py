@@ -36,8 +36,8 @@ command is :mod:`granular_chain.cli.sweep`.
 
 from __future__ import annotations
 
-from .execute import SweepStats, run_batch, run_sweep
-from .grid import Axis, SweepError, coord_text, grid_points, parse_grid, parse_list, set_path
+from .execute import SweepStats, run_sweep
+from .grid import Axis, SweepError, grid_points, parse_grid, parse_list, set_path
 from .heatmap import plot_heatmap
 from .point import QUANTITIES, PointOptions, evaluate_point
 from .resume import read_results
