@@ -293,7 +293,9 @@ SETS = [("no-equals", "run.dt", "dotted.path=value"), ("empty-path", "=1", "empt
         ("count-float", "granules.count=1e9", "granules.count"),
         ("alias", "run.dt=*a", "not valid YAML"), ("mass-tiny", "granules.mass=1e-300",
                                                     "granules.mass"),
-        ("negative-stiffness", "contacts.stiffness=-1", "must be positive")]
+        ("negative-stiffness", "contacts.stiffness=-1", "must be positive"),
+        ("index-not-a-list", "run.dt[0]=1", ["run.dt[0]", "'dt' is not a list"]),
+        ("index-out-of-range", "granules.mass[3]=2", ["granules.mass[3]", "out of range"])]
 for id, item, expect in SETS:
     for cmd in ("run", "validate"):
         add(f"{cmd}-set-{id}", [cmd, "{dir}/s.yaml", "--set", item], expect,
