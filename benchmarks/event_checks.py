@@ -83,7 +83,8 @@ def chain(N, n, eta, gamma, t_end, stepper, dt=None):
     d = {"granules": {"count": N, "velocity": [1.0] + [0.0] * (N - 1),
                       "friction": {"kinetic": eta, "viscous": gamma}},
          "contacts": {"exponent": n},
-         "run": {"stepper": stepper, "t_end": t_end, "max_events": 10 ** 8},
+         "run": {"stepper": stepper, "t_end": t_end,
+                 **({"max_events": 10 ** 8} if stepper == "event" else {})},
          "output": {"dt": t_end, "trajectory": False}}
     if dt:
         d["run"]["dt"] = dt

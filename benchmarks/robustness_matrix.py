@@ -86,7 +86,8 @@ def cases(stepper):
            lambda: run_scene(scene(stepper, granules={"count": 2, "mass": 2.0, "radius": [0.5, 0.375],
                                                       "velocity": [2.0, 0.0]}, run={"t_end": 8.0})))
     yield ("N = 1", "ballistic", lambda: run_scene(gc.scene_from_dict(
-        {"granules": {"count": 1, "velocity": 2.0}, "run": {"t_end": 1.0, "dt": 0.1, "stepper": stepper}})))
+        {"granules": {"count": 1, "velocity": 2.0}, "run": {
+            "t_end": 1.0, "stepper": stepper, **({"dt": 0.1} if stepper == "verlet" else {})}})))
     if stepper == "verlet":
         yield ("N = 1e6, 50 steps", "success", lambda: run_scene(gc.scene_from_dict(
             {"granules": {"count": 1_000_000, "velocity": {0: 1.0}}, "contacts": {"exponent": 2.5},

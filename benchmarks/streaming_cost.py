@@ -46,7 +46,7 @@ def run(way, grains, steps, every, features, folder: Path):
     model = build_model(s)
     writers, thermo = [], None
     if way != "none":
-        writers.append(TrajectoryFrames(folder, s, grains))
+        writers.append(TrajectoryFrames(folder, s, grains, model=model))
     if way == "all":
         writers.append(EnergyTable(folder))
         thermo = ThermoLog(model, max(1, steps // 20), folder / "thermo.csv")

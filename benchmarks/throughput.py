@@ -34,7 +34,8 @@ def chain_scene(grains, steps, features, dt=0.01, stepper="verlet", stop="t_end"
         "granules": {"count": grains, "mass": 1.0, "radius": 0.5, "gap": 0.0,
                      "velocity": {0: 1.0}, "friction": FRICTION[features]},
         "contacts": {"exponent": 2.5, "stiffness": 1.0},
-        "run": {"stepper": stepper, "dt": dt, "t_end": steps * dt, "stop": stop},
+        "run": {"stepper": stepper, "t_end": steps * dt, "stop": stop,
+                **({"dt": dt} if stepper == "verlet" else {})},  # Verlet's option only
         # one frame at the end: the run is a single compiled chunk
         "output": {"every": steps, "trajectory": False},
     })

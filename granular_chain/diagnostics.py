@@ -2,8 +2,9 @@
 
 Pure functions of a :class:`~granular_chain.result.Result` (plus the masses, read
 from a :class:`~granular_chain.model.Model` or a :class:`~granular_chain.scene.Scene`
-where energies are needed). Nothing here runs a simulation, except the CLI entry
-point :func:`run_diagnose_command` when it is handed a scene file.
+where energies are needed). Nothing here runs a simulation (the command
+``granular-chain diagnose``, :mod:`granular_chain.cli.diagnose`, does when it
+is handed a scene file).
 
 Frames matter. Every quantity is read off the recorded frames ``result.t``,
 ``result.v`` (shape ``(F, N)``), so its resolution is the output cadence:
@@ -45,12 +46,8 @@ to the measured speed, they do not force it.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import sys
 from dataclasses import asdict, dataclass
-from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
@@ -96,8 +93,9 @@ def nesterenko_width(a: float = 1.0) -> float:
     return NESTERENKO_WIDTH * a
 
 
-def _masses(model_or_scene, count: int) -> np.ndarray:
-    """Masses from a Model, a Scene, an array, or unit masses when None."""
+def _masses(result: Result, model_or_scene, count: int) -> np.ndarray:
+    """Masses from a Model or an array; for a Scene, those of the run
+    (``result.model``); unit masses when None."""
     if model_or_scene is None:
         return np.ones(count)
     if isinstance(model_or_scene, np.ndarray):
@@ -105,18 +103,23 @@ def _masses(model_or_scene, count: int) -> np.ndarray:
     mass = getattr(model_or_scene, "mass", None)
     if isinstance(mass, np.ndarray):
         return mass
-    from .model import build_model  # a Scene
-    return build_model(model_or_scene).mass
+    return _run_model(result, model_or_scene).mass
 
 
-def _reference_chain(model_or_scene) -> Optional[dict]:
+def _run_model(result: Result, scene):
+    """The Model the run used (attached by simulate and read_run; for a Result put
+    together by hand, built from ``scene`` by :func:`~.readback.run_model`)."""
+    from .readback import run_model
+    return run_model(result, scene)
+
+
+def _reference_chain(result: Result, model_or_scene) -> Optional[dict]:
     """k, m, a of contact 0 and granule 0 for Nesterenko's formula (Hertz contacts only)."""
     if model_or_scene is None:
         return None
     model = model_or_scene
-    if not hasattr(model, "k"):
-        from .model import build_model
-        model = build_model(model_or_scene)
+    if not hasattr(model, "k"):  # a Scene: the run's own constants
+        model = _run_model(result, model_or_scene)
     if model.count < 2 or float(model.n[0]) != 2.5:
         return None
     return {"k": float(model.k[0]), "m": float(model.mass[0]),
@@ -391,7 +394,7 @@ def backscatter(result: Result, model_or_scene=None, first: Optional[int] = None
     """
     N = result.v.shape[1]
     k = N if first is None else min(first, N)
-    m = _masses(model_or_scene, N)[:k]
+    m = _masses(result, model_or_scene, N)[:k]
     vf = np.asarray(result.v_final)[:k]
     back = vf < 0
     e_final = float(0.5 * np.sum(m[back] * vf[back] ** 2))
@@ -488,7 +491,7 @@ def summarize(result: Result, model_or_scene=None, *, first: int = 3,
                 fr = int(np.argmin(np.abs(result.t - tp[0])))
                 out["pulse"]["width_count_1pct"] = pulse_width(result, fr, 0.01)["count"]
                 out["pulse"]["width_cos4_fit"] = fitted_width(result, fr)["length"]
-                ref = _reference_chain(model_or_scene)
+                ref = _reference_chain(result, model_or_scene)
                 if ref is not None:
                     vs = nesterenko_speed(fit.v_peak, **ref)
                     out["pulse"]["nesterenko_speed"] = vs
@@ -500,65 +503,13 @@ def summarize(result: Result, model_or_scene=None, *, first: int = 3,
     return out
 
 
-# ---------------------------------------------------------------- CLI
+#: The ``granular-chain diagnose`` command lives in :mod:`granular_chain.cli.diagnose`;
+#: its two functions are importable from here too (loaded on first use).
+_COMMAND = {"add_diagnose_parser": "add_parser", "run_diagnose_command": "run"}
 
 
-def add_diagnose_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``granular-chain diagnose RUN_DIR_or_SCENE`` on an argparse subparsers object."""
-    p = subparsers.add_parser(
-        "diagnose", help="pulse speed/width, backscatter, energy ledger of a run or a scene",
-        description="Diagnostics of a finished run (RUN_DIR with trajectory.h5) or of a "
-        "scene file (simulated first). Prints JSON. Pulse speeds need fine frames: "
-        "output.every of a few steps.")
-    p.add_argument("target", metavar="RUN_DIR_or_SCENE")
-    p.add_argument("--set", dest="overrides", action="append", default=[],
-                   metavar="dotted.path=value", help="override a scene field (scene only)")
-    p.add_argument("--first", type=int, default=3,
-                   help="backscatter: the first this many granules (default 3)")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
-    return p
-
-
-def run_diagnose_command(args) -> int:
-    """Entry point of ``granular-chain diagnose``: 0 ok, 1 run failed, 2 bad input."""
-    from .scene import SceneError, load_scene
-
-    from .rundir import OutputError, check_new_files, write_text_atomic
-
-    target = Path(args.target)
-    try:
-        if args.out:
-            check_new_files([Path(args.out)], "--out")
-        if target.is_dir():
-            if not (target / "trajectory.h5").is_file():
-                print(f"granular-chain: {target}: no trajectory.h5 (run with trajectory on)",
-                      file=sys.stderr)
-                return 2
-            from .writers.trajectory import read_trajectory
-            try:
-                result, scene = read_trajectory(target)
-            except (OSError, ValueError) as exc:
-                print(f"granular-chain: {target}/trajectory.h5: cannot be read ({exc})",
-                      file=sys.stderr)
-                return 2
-            if args.overrides:
-                print("granular-chain: --set applies to scene files, not run folders",
-                      file=sys.stderr)
-                return 2
-        else:
-            from .simulate import SimulationError, simulate
-            scene = load_scene(target, args.overrides)
-            try:
-                result = simulate(scene)
-            except SimulationError as exc:
-                print(f"granular-chain: {target}: {exc}", file=sys.stderr)
-                return 2
-    except (SceneError, OutputError) as exc:
-        print(f"granular-chain: {exc}", file=sys.stderr)
-        return 2
-    summary = summarize(result, scene, first=args.first)
-    text = json.dumps(summary, indent=2)
-    print(text)
-    if args.out:
-        write_text_atomic(Path(args.out), text + "\n")
-    return 0 if result.success else 1
+def __getattr__(name: str):
+    if name in _COMMAND:
+        from .cli import diagnose as command
+        return getattr(command, _COMMAND[name])
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -63,9 +63,12 @@ class Features:
         }
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Model:
     """A scene packed into arrays (float64, contiguous), in the scene's units.
+
+    Frozen: a run's chain constants, attached to its Result (``result.model``)
+    for the writers, diagnostics and plots; compared by identity.
 
     Attributes
     ----------

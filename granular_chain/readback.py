@@ -5,6 +5,11 @@ A run folder written by ``granular-chain run`` holds ``trajectory.h5`` (every
 frame, the final state, events and status; see :mod:`.writers.trajectory`)
 and ``summary.json``. With the trajectory turned off only the summary exists;
 the Result then has the final state, status and counts and no frames.
+
+The chain constants of a run read back (``result.model``: radii, masses,
+contact laws, walls) are built once from its stored scene (:func:`run_model`).
+A run started from a state file that is gone still reads back, without them:
+what needs them then says why.
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["read_run", "summary_info"]
+__all__ = ["read_run", "run_model", "summary_info"]
 
 
 def read_run(path):
@@ -30,7 +35,8 @@ def read_run(path):
     Result
         Frames, energy ledger, events, status, message and final state, every
         array equal bit for bit to the one the run computed; ``result.scene``
-        is the scene the run was made from (None if the file does not hold it).
+        is the scene the run was made from (None if the file does not hold it)
+        and ``result.model`` its chain constants.
 
     Raises
     ------
@@ -54,7 +60,39 @@ def read_run(path):
     else:
         raise FileNotFoundError(f"{path}: not a run folder (no trajectory.h5, no summary.json)")
     result.scene = scene
+    if scene is not None:
+        from .initial_state import StateFileError
+        try:
+            run_model(result)
+        except StateFileError:  # started from a state file that is gone: the frames
+            pass  # still read back; run_model says why when the constants are asked for
     return result
+
+
+def run_model(result, scene=None):
+    """The chain constants of a run: ``result.model``, built from its scene if need be.
+
+    :func:`granular_chain.simulate` attaches the Model it ran; a Result read
+    back by :func:`read_run`, or put together by hand, gets it here, built once
+    from ``scene`` (default ``result.scene``) and attached. This is the one
+    place where a Result's Model is rebuilt from a Scene.
+
+    Parameters
+    ----------
+    result : Result
+    scene : Scene, optional
+
+    Returns
+    -------
+    Model or None
+        None when the Result has neither a Model nor a scene.
+    """
+    if result.model is None:
+        scene = scene if scene is not None else result.scene
+        if scene is not None:
+            from .model import build_model
+            result.model = build_model(scene)
+    return result.model
 
 
 _SUMMARY_KEYS = {"status", "status_code", "success", "message", "stepper", "dt", "t_final",

@@ -173,6 +173,19 @@ class Result:
     def scene(self, value) -> None:
         self.__dict__["_scene"] = value
 
+    @property
+    def model(self):
+        """The chain constants the run used (a :class:`~granular_chain.model.Model`, in
+        the scene's units: radii, masses, contact k and n, walls, friction), attached by
+        :func:`granular_chain.simulate` and, built once from the stored scene, by
+        :func:`granular_chain.read_run`; None for a Result put together by hand. Not a
+        dataclass field, like :attr:`scene`."""
+        return self.__dict__.get("_model")
+
+    @model.setter
+    def model(self, value) -> None:
+        self.__dict__["_model"] = value
+
     def __repr__(self) -> str:
         name = self.scene.name if self.scene is not None else self.info.get("scene_name")
         who = f"{name!r}, " if name else ""

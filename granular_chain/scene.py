@@ -41,10 +41,12 @@ __all__ = [
     "load_scene",
     "scene_from_dict",
     "apply_overrides",
+    "set_path",
     "scene_json_schema",
     "read_scene_data",
     "parse_yaml_value",
     "MAX_SCENE_BYTES",
+    "STEPPER_OPTIONS",
     "SCALE_MIN",
     "SCALE_MAX",
 ]
@@ -333,8 +335,21 @@ class Output(_Strict):
         "at its first frame after each 1/20 of t_end.")
 
 
+#: The options only one stepper reads, by ``run.stepper``: ``run.dt`` and
+#: ``run.check_dt`` (Verlet's time step), ``output.events`` (Verlet's event log:
+#: the event stepper always logs) and ``output.thermo`` (steps between thermo
+#: lines: the event stepper writes one after each 1/20 of t_end); ``run.rtol``,
+#: ``run.atol`` and ``run.max_events`` (the event stepper's series tolerances and
+#: event cap). Every other field of ``run`` and ``output`` is read by both.
+STEPPER_OPTIONS = {
+    "verlet": ("run.dt", "run.check_dt", "output.events", "output.thermo"),
+    "event": ("run.rtol", "run.atol", "run.max_events"),
+}
+
+
 class Run(_Strict):
-    """How to step and when to stop."""
+    """How to step and when to stop (:data:`STEPPER_OPTIONS`: which fields belong to
+    one stepper)."""
 
     stepper: Literal["verlet", "event"] = Field("verlet", description="Time stepper.")
     dt: Optional[Positive] = Field(
@@ -439,6 +454,28 @@ class Scene(_Strict):
                                 f"is {self.run.stop_contact} but contacts are numbered 0..{n - 2}")
         if self.output.every is not None and self.output.dt is not None:
             raise _FieldProblem("output", "give either 'every' (steps) or 'dt' (time), not both")
+        return self
+
+    @model_validator(mode="after")
+    def _options_of_the_stepper(self, info: ValidationInfo) -> "Scene":
+        """Refuse an option the chosen stepper would ignore (:data:`STEPPER_OPTIONS`):
+        one set to anything but its default. The scene of a finished run, read back
+        for its record, is taken as it was written."""
+        if (info.context or {}).get("stored"):
+            return self
+        stepper = self.run.stepper
+        for owner, paths in STEPPER_OPTIONS.items():
+            if owner == stepper:
+                continue
+            for path in paths:
+                group, name = path.split(".")
+                section = getattr(self, group)
+                default = type(section).model_fields[name].default
+                if getattr(section, name) != default:
+                    unset = "remove it (or set it to null)" if default is None else "remove it"
+                    raise _FieldProblem(path, f"is read by the {owner} stepper only; with "
+                                        f"run.stepper: {stepper} it would be ignored: {unset}, "
+                                        f"or use run.stepper: {owner}")
         return self
 
 
@@ -796,6 +833,88 @@ def read_scene_data(path: Union[str, Path]) -> Any:
         raise SceneError(source, "", "invalid YAML: nested too deeply") from None
 
 
+#: ``name[i]``: item i of a list field (negative i counts from the end).
+_INDEX = re.compile(r"^(?P<name>[A-Za-z_][A-Za-z0-9_]*)\[(?P<i>-?\d+)\]$")
+#: Fields with one value per granule or per contact: one of their items can be set
+#: even where the scene gives a single value for all (it is expanded first).
+_PER_GRANULE = {"granules.mass", "granules.radius", "granules.velocity",
+                "granules.friction.kinetic", "granules.friction.static",
+                "granules.friction.viscous", "granules.material.young",
+                "granules.material.poisson"}
+_PER_CONTACT = {"granules.gap", "contacts.exponent", "contacts.stiffness"}
+#: Values of per-item fields the scene leaves out (the schema's defaults).
+_ITEM_DEFAULTS = {"granules.mass": 1.0, "granules.radius": 0.5}
+
+
+def set_path(data: dict, path: str, value, source: str = "--set") -> None:
+    """Set one field of a raw scene mapping: ``data[a][b][c] = value`` for ``a.b.c``.
+
+    The one dotted-path setter of the engine (``--set``, sweep axes). A last part
+    ``c[i]`` sets item i of a list; a per-granule (per-contact) field that holds
+    a single number, or a sparse ``{index: value}`` velocity, is first expanded to
+    one value per granule (contact), so that one of them can be set. Missing
+    groups are created; nothing is validated here (:func:`scene_from_dict` does).
+
+    Raises
+    ------
+    SceneError
+        An empty part, a part that is not a group of fields, an index into a field
+        that is not a list, or an index out of range.
+    """
+    parts = path.split(".")
+    if not path or any(not p for p in parts):
+        raise SceneError(source, path, "empty field name in dotted path")
+    target = data
+    for part in parts[:-1]:
+        nxt = target.get(part)
+        if nxt is None:
+            nxt = target[part] = {}
+        if not isinstance(nxt, dict):
+            raise SceneError(source, path, f"'{part}' is not a group of fields")
+        target = nxt
+    last = _INDEX.match(parts[-1])
+    if last is None:
+        target[parts[-1]] = value
+        return
+    name, i = last["name"], int(last["i"])
+    items = _item_list(data, ".".join(parts[:-1] + [name]), target.get(name), source, path)
+    if not -len(items) <= i < len(items):
+        raise SceneError(source, path, f"index {i} out of range for {len(items)} values")
+    items[i] = value
+    target[name] = items
+
+
+def _item_list(data: dict, plain: str, current, source: str, path: str) -> list:
+    """A copy of the list a ``name[i]`` path indexes: the list itself, or a per-item
+    field's single value (or sparse velocity mapping) expanded to one per item."""
+    if isinstance(current, list):
+        return list(current)
+    granules = data.get("granules")
+    count = granules.get("count", 0) if isinstance(granules, dict) else 0
+    if not isinstance(count, int) or isinstance(count, bool):
+        raise SceneError(source, path, "needs granules.count, a whole number, to expand "
+                         "a per-item field")
+    if plain in _PER_GRANULE:
+        size = count
+    elif plain in _PER_CONTACT:
+        size = count - 1
+    else:
+        raise SceneError(source, path, f"'{plain.rsplit('.', 1)[-1]}' is not a list and "
+                         f"not a per-granule field")
+    if isinstance(current, dict):  # a sparse velocity mapping {index: value}
+        if "distribution" in current:
+            raise SceneError(source, path, "is a distribution recipe: set the whole field")
+        full = [0.0] * size
+        try:
+            for k, item in current.items():
+                full[int(k)] = item
+        except (ValueError, TypeError, IndexError):
+            raise SceneError(source, path, f"{plain} holds a granule index out of range "
+                             f"0..{size - 1}") from None
+        return full
+    return [_ITEM_DEFAULTS.get(plain, 0.0) if current is None else current] * size
+
+
 def apply_overrides(data: dict, overrides: list[str], source: str = "--set") -> dict:
     """Apply ``dotted.path=value`` overrides (values parsed as YAML) to a scene mapping.
 
@@ -804,7 +923,8 @@ def apply_overrides(data: dict, overrides: list[str], source: str = "--set") -> 
     data : dict
         The raw scene mapping (modified in place and returned).
     overrides : list of str
-        Items like ``granules.friction.kinetic=[0, 0.3]`` or ``run.dt=1e-4``.
+        Items like ``granules.friction.kinetic=[0, 0.3]``, ``run.dt=1e-4`` or
+        ``granules.friction.kinetic[1]=0.3`` (see :func:`set_path`).
     """
     for item in overrides:
         if "=" not in item:
@@ -818,17 +938,7 @@ def apply_overrides(data: dict, overrides: list[str], source: str = "--set") -> 
         except yaml.YAMLError as exc:
             raise SceneError(source, path, f"value {raw!r} is not valid YAML "
                              f"({_yaml_problem(exc)})") from None
-        target = data
-        parts = path.split(".")
-        for part in parts[:-1]:
-            nxt = target.get(part) if isinstance(target, dict) else None
-            if nxt is None:
-                nxt = {}
-                target[part] = nxt
-            if not isinstance(nxt, dict):
-                raise SceneError(source, path, f"'{part}' is not a group of fields")
-            target = nxt
-        target[parts[-1]] = value
+        set_path(data, path, value, source)
     return data
 
 

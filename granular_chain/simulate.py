@@ -130,6 +130,7 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         result.status, result.message = ledger_verdict(result, scene.run.energy_tolerance,
                                                        "run.energy_tolerance")
     result.scene = scene
+    result.model = model  # the chain constants writers, diagnostics and plots read
     return result
 
 

@@ -37,7 +37,7 @@ BASE = {
     "contacts": {"exponent": 2.0, "stiffness": 1.0},
     "walls": {"left": {"gap": 0.1, "stiffness": 1.0, "exponent": 2.0}},
     "run": {"stepper": "verlet", "dt": 0.01, "t_end": 1.0, "max_steps": 1_000_000,
-            "rtol": 1e-12, "atol": 1e-14, "max_events": 1000, "stop_contact": 0,
+            "rtol": 1e-12, "atol": 1e-14, "stop_contact": 0,
             "check_dt": True},
     "output": {"every": 10, "trajectory": False},
 }
@@ -132,6 +132,25 @@ for path, value in [("run.stepper", "rk4"), ("run.stepper", 1), ("run.stepper", 
                     ("granules.velocity", "fast"), ("contacts.stiffness", "herts")]:
     add_scene(f"{path}-{value!r}", scene(**{path: value}), path, category="types")
 
+# --- options the chosen stepper would ignore (scene.STEPPER_OPTIONS) -------------
+EVENT = {"run.stepper": "event", "run.dt": _DELETE}
+for id, changes, expect in [
+        ("event-dt", {"run.stepper": "event"}, "run.dt"),
+        ("event-check-dt", {**EVENT, "run.check_dt": False}, "run.check_dt"),
+        ("event-output-events", {**EVENT, "output.events": True}, "output.events"),
+        ("event-output-thermo", {**EVENT, "output.thermo": 5}, "output.thermo"),
+        ("verlet-rtol", {"run.rtol": 1e-10}, "run.rtol"),
+        ("verlet-atol", {"run.atol": 1e-10}, "run.atol"),
+        ("verlet-max-events", {"run.max_events": 1000}, "run.max_events")]:
+    owner = "event" if id.startswith("verlet") else "verlet"
+    add_scene(f"stepper-{id}", scene(**changes),
+              [f"s.yaml: {expect}: is read by the {owner} stepper only", "would be ignored"],
+              commands=("run", "validate"), category="stepper options")
+for cmd in ("run", "validate"):  # switching the stepper of a Verlet scene with a dt
+    add(f"{cmd}-set-stepper-event", [cmd, "{dir}/s.yaml", "--set", "run.stepper=event"],
+        ["run.dt: is read by the verlet stepper only", "set it to null"], {"s.yaml": dump(BASE)},
+        category="stepper options")
+
 # --- names that are paths or not names ------------------------------------------
 for i, name in enumerate(["/some/folder", "../../home", "a/b", "a\\b", "a\0b", "tab\tname",
                           "new\nline", "", "   ", ".", "..", ".hidden", "x" * 300, 123, None,
@@ -183,7 +202,7 @@ EXTREMES = [
     ("stiffness-1e150-steps", {"contacts.stiffness": 1e150, "run.dt": _DELETE,
                                "walls": {}}, ["run.max_steps", "= 1000000"]),
     ("stiffness-1e150-event", {"contacts.stiffness": 1e150, "run.stepper": "event",
-                               "walls": {}}, ["run.t_end", "2^52"]),
+                               "run.dt": _DELETE, "walls": {}}, ["run.t_end", "2^52"]),
     ("wall-stiffness-1e-300", {"walls.left.stiffness": 1e-300}, "walls.left.stiffness"),
     ("mass-stiffness-ratio", {"granules.mass": 2.0 ** -511, "contacts.stiffness": 2.0 ** 511},
      "contacts.stiffness"),
@@ -197,7 +216,7 @@ EXTREMES = [
     ("count-3e7", {"granules.count": 30_000_000, "granules.velocity": {0: 1.0}},
      ["granules.count", "GB"]),
     ("count-3e7-event", {"granules.count": 30_000_000, "granules.velocity": {0: 1.0},
-                         "run.stepper": "event"}, ["granules.count", "GB"]),
+                         "run.stepper": "event", "run.dt": _DELETE}, ["granules.count", "GB"]),
     ("steps", {"run.t_end": 1e6, "run.dt": 1e-6}, ["run.max_steps", "1e+12", "1000000"]),
     ("steps-max-steps-10", {"run.max_steps": 10}, ["run.max_steps", "100", "10"]),
     ("dt-above-t_end", {"run.dt": 2.0, "run.t_end": 1.0, "contacts.stiffness": 1e-4,
@@ -274,7 +293,9 @@ SETS = [("no-equals", "run.dt", "dotted.path=value"), ("empty-path", "=1", "empt
         ("count-float", "granules.count=1e9", "granules.count"),
         ("alias", "run.dt=*a", "not valid YAML"), ("mass-tiny", "granules.mass=1e-300",
                                                     "granules.mass"),
-        ("negative-stiffness", "contacts.stiffness=-1", "must be positive")]
+        ("negative-stiffness", "contacts.stiffness=-1", "must be positive"),
+        ("index-not-a-list", "run.dt[0]=1", ["run.dt[0]", "'dt' is not a list"]),
+        ("index-out-of-range", "granules.mass[3]=2", ["granules.mass[3]", "out of range"])]
 for id, item, expect in SETS:
     for cmd in ("run", "validate"):
         add(f"{cmd}-set-{id}", [cmd, "{dir}/s.yaml", "--set", item], expect,
@@ -512,3 +533,29 @@ def test_yaml_that_is_fine_still_loads(tmp_path):
     s = load_scene(path)
     assert s.run.dt == 1e-3 and s.granules.mass == 1.0 and s.granules.velocity == {0: 1.0}
     assert (s.walls.right.gap, s.walls.right.stiffness, s.walls.left.gap) == (0.2, 2.0, 0.1)
+
+
+def test_each_stepper_takes_its_own_options_and_ignores_the_others():
+    """The split of STEPPER_OPTIONS is the engines': each stepper accepts its own
+    options, and a finished run's record holding the other stepper's (read back
+    with ``stored=True``, as older runs may) gives the same bits as without them,
+    so those options really are not read."""
+    from granular_chain import simulate
+    from granular_chain.scene import STEPPER_OPTIONS, scene_from_dict
+
+    assert set(STEPPER_OPTIONS) == {"verlet", "event"}
+    event = {"run.stepper": "event", "run.dt": _DELETE, "walls": {}}
+    own = scene_from_dict(scene(**event, **{"run.rtol": 1e-10, "run.max_events": 50}))
+    assert (own.run.rtol, own.run.max_events) == (1e-10, 50)
+    own = scene_from_dict(scene(**{"run.check_dt": False, "output.events": True,
+                                   "output.thermo": 5}))
+    assert own.output.thermo == 5 and own.output.events
+    for plain, foreign in (
+            (event, {**event, "run.dt": 0.5, "run.check_dt": False}),
+            ({"walls": {}}, {"walls": {}, "run.rtol": 1e-3, "run.atol": 1e-3,
+                             "run.max_events": 1})):
+        a = simulate(scene_from_dict(scene(**plain)), progress=False)
+        b = simulate(scene_from_dict(scene(**foreign), stored=True), progress=False)
+        assert a.status == b.status and a.steps == b.steps and a.t.size == b.t.size
+        for name in ("t", "x", "v", "f"):
+            assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name

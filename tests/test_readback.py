@@ -254,7 +254,7 @@ def test_frame_of_a_long_chain_shows_the_pulse(tmp_path):
 
 
 def test_event_stepper_run_reads_back_with_its_event_log(tmp_path):
-    scene = gc.load_scene(ROOT / "scenarios" / "two_granules.yaml", ["run.stepper=event"])
+    scene = gc.load_scene(ROOT / "scenarios" / "two_granules.yaml", ["run.stepper=event", "run.dt=null"])
     result = gc.simulate(scene, progress=False)
     assert [e.kind for e in result.events] == ["contact_close", "slip", "contact_open"]
     back = gc.read_run(_folder(tmp_path, scene, result))

@@ -275,7 +275,7 @@ def test_replacing_a_run_with_subfolders_leaves_no_debris(work):
 
 
 def test_a_folder_that_appears_during_the_run_is_left_alone(work, monkeypatch, capsys):
-    import granular_chain.cli as cli
+    import granular_chain.cli.run as cli
 
     original = cli._write_outputs
 

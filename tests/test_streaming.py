@@ -21,7 +21,8 @@ def chain(stepper="verlet", **run):
                      "friction": {"kinetic": [0.0] * 15 + [2e-5] * 15, "viscous": 1e-4}},
         "contacts": {"exponent": 2.5},
         "walls": {"right": {"gap": 0.0, "exponent": 2.5}},
-        "run": {"stepper": stepper, "t_end": 60.0, "dt": 0.02, **run},
+        "run": {"stepper": stepper, "t_end": 60.0,
+                **({"dt": 0.02} if stepper == "verlet" else {}), **run},
         "output": {"every": 25}})
 
 

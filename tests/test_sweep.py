@@ -76,6 +76,19 @@ def test_set_path_expands_per_granule_fields():
         sw.set_path(d, "run.dt[0]", 0.1)
 
 
+def test_set_and_sweep_axes_share_the_scene_setter():
+    # --set takes the same dotted paths as a sweep axis, list items included.
+    from granular_chain.scene import apply_overrides, load_scene
+
+    d = {"granules": {"count": 3, "velocity": {0: 1.0}, "friction": {"kinetic": 0.1}}}
+    apply_overrides(d, ["granules.friction.kinetic[2]=0.5", "granules.velocity[1]=-1.0",
+                        "granules.gap[-1]=-0.01", "run.dt=1e-3"])
+    assert d == {"granules": {"count": 3, "velocity": [1.0, -1.0, 0.0], "gap": [0.0, -0.01],
+                              "friction": {"kinetic": [0.1, 0.1, 0.5]}}, "run": {"dt": 1e-3}}
+    scene = load_scene(ETA_MAP, ["granules.friction.kinetic[1]=0.25"])
+    assert scene.granules.friction.kinetic[1] == 0.25
+
+
 def test_points_match_collide():
     # The sweep's N = 2 fields are the collide() outcome of the same collision.
     row = sw.evaluate_point({"granules": {"count": 2}, **_eta_scene()}, "t", 

@@ -61,7 +61,8 @@ def test_vtk_series_opens_in_pyvista_with_times_and_point_data(run, tmp_path):
         overlap = 20.0 - np.diff(x)  # r_i + r_(i+1) = 20
         assert np.array_equal(frame.cell_data["overlap"], overlap)
         force = frame.cell_data["force"]
-        assert np.array_equal(force, np.maximum(overlap, 0.0) ** 1.5)
+        closed = np.maximum(overlap, 0.0)  # the Hertz law of laws.contact: d sqrt(d)
+        assert np.array_equal(force, closed * np.sqrt(closed))
         assert np.array_equal(frame.cell_data["in_contact"], overlap > 0)
         # Physics: the contact forces add up to the engine's net force on each
         # granule (f_i = F_(i-1) - F_i). The engine forms overlaps from
@@ -99,6 +100,52 @@ def test_pvd_index_is_vtk_collection_and_only_written_on_clean_exit(run, tmp_pat
     ds = root.find("Collection").findall("DataSet")
     assert [d.attrib["file"] for d in ds] == [f"vtk/frame_{i:06d}.vtp" for i in range(3)]
     assert [float(d.attrib["timestep"]) for d in ds] == list(result.t[:3])
+
+
+def test_vtk_forces_are_the_engines_contact_law_with_the_walls(tmp_path):
+    """Both walls pressing on a Hertz chain (run through the CLI, its VTK writer
+    attached to the run): in every frame the cells' contact forces and the
+    field data's wall forces add up to the engine's net force on each granule,
+    the two end granules included, and at t = 0, where the writer's wall overlaps
+    equal the engine's exactly, the wall forces are the engine's law bit for bit."""
+    import pyvista as pv
+
+    from granular_chain import read_run
+    from granular_chain.laws.contact import contact_force
+
+    out = tmp_path / "walls"
+    assert main(["run", str(ROOT / "scenarios" / "chain_walls.yaml"), "--out", str(out),
+                 "--quiet", "--vtk", "--set", "walls.left.gap=-0.02", "--set",
+                 "walls.right.gap=-0.03", "--set", "run.t_end=60", "--set",
+                 "output.every=200"]) == 0
+    result = read_run(out)
+    model = result.model
+    law, walls = model.features.law, model.walls
+    reader = pv.get_reader(str(out / "run.pvd"))
+    assert np.array_equal(np.array(reader.time_values), result.t) and result.t.size == 31
+    pressed = 0.0
+    for i, t in enumerate(result.t):
+        reader.set_active_time_value(t)
+        frame = reader.read()[0]
+        force = frame.cell_data["force"]
+        wall = frame.field_data["wall_force"]
+        net = np.concatenate([[wall[0]], force]) - np.concatenate([force, [wall[1]]])
+        # The writer forms overlaps from positions x = x0 + u, the engine from the
+        # displacements u: they differ by at most 2 ulps of the largest position,
+        # times the contact stiffness dF/d(delta) = 1.5 sqrt(delta), twice (two
+        # contacts per granule).
+        delta = max(float(np.max(frame.cell_data["overlap"])),
+                    float(np.nanmax(frame.field_data["wall_overlap"])))
+        bound = 2 * 1.5 * np.sqrt(delta) * 2 * np.spacing(np.max(np.abs(result.x[i])))
+        assert np.max(np.abs(net - result.f[i])) <= bound, (i, bound)
+        pressed = max(pressed, float(np.min(wall)))
+        if i == 0:  # u = 0: the wall overlaps are the engine's d0 exactly
+            assert wall[0] == contact_force(law, walls[0], walls[1], walls[2])
+            assert wall[1] == contact_force(law, walls[3], walls[4], walls[5])
+            assert list(frame.field_data["wall_overlap"]) == [0.02, 0.03]
+    # In some frames both walls press at once, by far more than the bound (forces
+    # ~0.1): without the wall forces the end granules' net force would be missed.
+    assert pressed > 1e-3
 
 
 def test_friction_state_legend():

@@ -215,11 +215,11 @@ def render_frame(result, path, scene, time: Optional[float] = None,
     _prefer_egl()
     import pyvista as pv
 
-    from ..model import build_model
+    from ..readback import run_model
     from .vtk import contact_overlap_force
 
     pv.OFF_SCREEN = True
-    model = build_model(scene)
+    model = run_model(result, scene)
     t = result.t
     target = 0.5 * (t[0] + t[-1]) if time is None else float(time)
     i = int(np.argmin(np.abs(t - target)))
@@ -242,7 +242,8 @@ def render_frame(result, path, scene, time: Optional[float] = None,
                 smooth_shading=True,
                 scalar_bar_args={**bar, "title": "velocity", "position_x": 0.55})
     if x.size > 1:
-        overlap, force = contact_overlap_force(x, radius, k, n)
+        # the neighbour contacts of the window (no wall is drawn)
+        overlap, force = contact_overlap_force(x, radius, k, n, law=model.features.law)[:2]
         closed = np.flatnonzero(overlap > 0.0)
         if closed.size:
             lines = np.column_stack([np.full(closed.size, 2), closed, closed + 1]).ravel()

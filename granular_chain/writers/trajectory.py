@@ -126,13 +126,11 @@ def final_attrs(result) -> dict:
     return attrs
 
 
-def granule_values(scene) -> dict:
-    """The per-granule model arrays stored with the run (empty without a scene)."""
-    if scene is None:
+def granule_values(model) -> dict:
+    """The per-granule arrays of the run's Model stored with it, each of shape (N,)
+    (empty without a Model)."""
+    if model is None:
         return {}
-    from ..model import build_model
-
-    model = build_model(scene)
     return {name: getattr(model, attr) for name, (attr, _, _) in _GRANULE_FIELDS.items()}
 
 
@@ -148,11 +146,14 @@ class TrajectoryWriter:
     folder : path
         Folder the file is written into (``folder/trajectory.h5``, replaced).
     scene : Scene or None
-        Stored as YAML text; sets the units and the per-granule arrays.
+        Stored as YAML text; sets the units.
     count : int
         Number of granules N.
     chunk_frames : int
         Frames buffered before a write.
+    model : Model, optional
+        The run's chain constants: its per-granule arrays (masses, radii, friction)
+        are stored with the frames.
 
     Use as a context manager; :meth:`close` with the run's Result writes the
     final state, events and status. Leaving the block without it flushes the
@@ -160,7 +161,7 @@ class TrajectoryWriter:
     """
 
     def __init__(self, folder, scene, count: int, *, chunk_frames: int = 64,
-                 resume_frames: Optional[int] = None):
+                 resume_frames: Optional[int] = None, model=None):
         self.path = Path(folder) / "trajectory.h5"
         self.count = int(count)
         self.frames = 0
@@ -176,7 +177,7 @@ class TrajectoryWriter:
             return
         self._h5 = h5py.File(self.path, "w", track_order=True)
         try:
-            self._create(scene)
+            self._create(scene, model)
         except BaseException:
             self._h5.close()
             raise
@@ -201,7 +202,7 @@ class TrajectoryWriter:
             h5[name].resize(frames, axis=0)
         self.frames = frames
 
-    def _create(self, scene) -> None:
+    def _create(self, scene, model) -> None:
         h5, n = self._h5, self.count
         h5.attrs.update(root_attrs(scene))
         time = h5.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
@@ -221,7 +222,7 @@ class TrajectoryWriter:
             ds.dims[1].attach_scale(granule)
         for name in self._led:  # balance needs the initial energy: written by close()
             self._series(name)
-        for name, values in granule_values(scene).items():
+        for name, values in granule_values(model).items():
             _, kind, text = _GRANULE_FIELDS[name]
             self._put(name, values, ("granule",), kind, text)
 
@@ -317,10 +318,16 @@ class TrajectoryFrames:
         Stored in the file; sets the units.
     count : int
         Number of granules N.
+    resume_frames : int, optional
+        Continue the file after this many frames (a run restarted from a checkpoint).
+    model : Model, optional
+        The run's chain constants (per-granule arrays stored with the frames).
     """
 
-    def __init__(self, folder, scene, count: int, resume_frames: Optional[int] = None):
-        self.writer = TrajectoryWriter(folder, scene, count, resume_frames=resume_frames)
+    def __init__(self, folder, scene, count: int, resume_frames: Optional[int] = None,
+                 model=None):
+        self.writer = TrajectoryWriter(folder, scene, count, resume_frames=resume_frames,
+                                       model=model)
         self._open = True
 
     def flush(self) -> None:
@@ -344,9 +351,13 @@ class TrajectoryFrames:
 
 def write_trajectory(result, folder: Path, scene=None) -> Path:
     """Write ``folder/trajectory.h5`` from a finished Result (streamed through
-    :class:`TrajectoryWriter`); returns the path."""
+    :class:`TrajectoryWriter`); returns the path. ``scene`` is stored with the
+    frames (and gives the chain constants of a Result that has none)."""
+    from ..readback import run_model
+
     led = result.energy
-    with TrajectoryWriter(folder, scene, result.x.shape[1]) as w:
+    with TrajectoryWriter(folder, scene, result.x.shape[1],
+                          model=run_model(result, scene)) as w:
         for i in range(result.t.size):
             w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
                           led.potential[i], led.coulomb[i], led.viscous[i])
@@ -435,7 +446,9 @@ def to_xarray(result, scene=None):
     led = result.energy
     data.update({name: ("time", getattr(led, name), _attrs(units, "energy", text))
                  for name, text in LEDGER_FIELDS.items()})
-    for name, values in granule_values(scene).items():
+    from ..readback import run_model
+
+    for name, values in granule_values(run_model(result, scene)).items():
         _, kind, text = _GRANULE_FIELDS[name]
         data[name] = ("granule", values, _attrs(units, kind, text))
     data["x_final"] = ("granule", result.x_final, _attrs(units, "length", "final granule position"))

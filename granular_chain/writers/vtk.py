@@ -22,13 +22,20 @@ point data, shape (N,)
 line cells, N - 1
     Every neighbour pair ``(i, i+1)``, open or closed, with cell data ``overlap``
     ``delta_i = r_i + r_(i+1) - (x_(i+1) - x_i)`` (negative = gap), ``force``
-    ``k_i max(delta_i, 0)^(n_i - 1)`` (compressive, >= 0) and ``in_contact`` (uint8).
+    ``k_i max(delta_i, 0)^(n_i - 1)`` (compressive, >= 0; the contact law of
+    :mod:`granular_chain.laws.contact`) and ``in_contact`` (uint8).
     All pairs are kept, not only the closed ones, so every frame has the same
     topology: ParaView's temporal filters (Plot Data Over Time on a contact) then
     follow one contact through the run, and Threshold on ``in_contact`` shows only the
-    closed ones. Wall contacts are not drawn (they have no second point).
+    closed ones. Wall contacts have no second point, so they are not cells: their
+    overlap and force are field data.
 field data
-    ``TimeValue`` (ParaView's per-file time), ``frame`` (index), ``friction_state_legend``.
+    ``TimeValue`` (ParaView's per-file time), ``frame`` (index), ``friction_state_legend``;
+    ``wall_overlap`` and ``wall_force``, shape (2,): the left then the right wall
+    contact, as the cells' ``overlap`` and ``force`` (a chain without that wall:
+    overlap NaN, force 0). With them the contact forces add up to ``net_force``:
+    ``net_force_0 = wall_force_left - force_0``, ``net_force_(N-1) = force_(N-2) -
+    wall_force_right``.
 
 What is written by hand: only the ``.pvd`` collection index (a ten-line XML file). VTK
 has no writer for it outside ParaView, and meshio does not write it either (meshio's
@@ -44,10 +51,16 @@ from pathlib import Path
 from typing import Optional
 from xml.sax.saxutils import quoteattr
 
+from typing import NamedTuple
+
+import numba
 import numpy as np
 
-__all__ = ["contact_overlap_force", "friction_state", "VTKSeriesWriter", "VTKFrames", "write_vtk",
-           "FRAME_DIR", "PVD_NAME"]
+from ..laws.contact import LAW_POWER, contact_force
+
+__all__ = ["contact_overlap_force", "ContactForces", "WallContact", "wall_contacts",
+           "friction_state", "VTKSeriesWriter", "VTKFrames", "write_vtk", "FRAME_DIR",
+           "PVD_NAME"]
 
 FRAME_DIR = "vtk"
 PVD_NAME = "run.pvd"
@@ -55,8 +68,63 @@ FRICTION_LEGEND = "1 stuck (v == 0 with Coulomb friction), 0 sliding or moving, 
                   "-1 no Coulomb friction on this granule"
 
 
-def contact_overlap_force(x, radius, k, n):
-    """Overlap and compressive force of each neighbour contact.
+class WallContact(NamedTuple):
+    """A fixed wall beyond an end granule, as the writers need it (scene units)."""
+
+    d0: float  #: initial overlap of the wall contact (negative: a gap)
+    k: float   #: force coefficient
+    n: float   #: potential exponent
+    x0: float  #: initial centre position of the end granule it touches
+
+
+def wall_contacts(model) -> tuple:
+    """``(left, right)``: the :class:`WallContact` of each wall of ``model``, or None."""
+    walls = model.walls
+    left = right = None
+    if model.features.left_wall:
+        left = WallContact(float(walls[0]), float(walls[1]), float(walls[2]),
+                           float(model.x0[0]))
+    if model.features.right_wall:
+        right = WallContact(float(walls[3]), float(walls[4]), float(walls[5]),
+                            float(model.x0[-1]))
+    return left, right
+
+
+class ContactForces(NamedTuple):
+    """Overlaps and compressive forces of the contacts of one frame.
+
+    Attributes
+    ----------
+    overlap, force : ndarray, shape (N-1,)
+        Neighbour contacts i, i+1: ``delta_i = r_i + r_(i+1) - (x_(i+1) - x_i)``
+        (negative is a gap) and ``F(delta_i) >= 0``.
+    wall_overlap, wall_force : ndarray, shape (2,)
+        The left then the right wall contact (NaN and 0 where there is no wall).
+    """
+
+    overlap: np.ndarray
+    force: np.ndarray
+    wall_overlap: np.ndarray
+    wall_force: np.ndarray
+
+
+@numba.njit(cache=True)
+def _law_forces(law, overlap, k, n, force):
+    """``force[i] = F(overlap[i])`` by the contact law ``law`` of :mod:`..laws.contact`
+    (LAW_LINEAR, LAW_HERTZ or LAW_POWER); arrays of shape (M,)."""
+    for i in range(overlap.size):
+        force[i] = contact_force(law, overlap[i], k[i], n[i])
+
+
+def contact_overlap_force(x, radius, k, n, walls=(None, None),
+                          law: int = LAW_POWER) -> ContactForces:
+    """Overlap and compressive force of every contact, neighbours and walls.
+
+    The force is the contact law of :mod:`granular_chain.laws.contact`, the one
+    the steppers call: ``law`` is the run's (``model.features.law``); the general
+    power law ``k max(delta, 0)^(n - 1)`` by default. The overlaps are formed
+    from positions, the steppers' from displacements: the two differ by a few
+    ulps of the largest position.
 
     Parameters
     ----------
@@ -66,18 +134,30 @@ def contact_overlap_force(x, radius, k, n):
         Radii r_i.
     k, n : ndarray, shape (N-1,)
         Force coefficient and potential exponent of each contact.
+    walls : (WallContact or None, WallContact or None)
+        The left and right wall (:func:`wall_contacts`); none by default.
+    law : int
+        The contact law code of every contact and wall (:mod:`..laws.contact`).
 
     Returns
     -------
-    overlap : ndarray, shape (N-1,)
-        ``delta_i = r_i + r_(i+1) - (x_(i+1) - x_i)``; negative is a gap.
-    force : ndarray, shape (N-1,)
-        ``k_i * max(delta_i, 0)**(n_i - 1)`` (one-sided power law, paper eq. (1)).
+    ContactForces
     """
     x = np.asarray(x, dtype=np.float64)
-    overlap = radius[:-1] + radius[1:] - (x[1:] - x[:-1])
-    force = k * np.maximum(overlap, 0.0) ** (n - 1.0)
-    return overlap, force
+    overlap = np.ascontiguousarray(radius[:-1] + radius[1:] - (x[1:] - x[:-1]))
+    force = np.empty(overlap.size)
+    _law_forces(law, overlap, np.ascontiguousarray(k, dtype=np.float64),
+                np.ascontiguousarray(n, dtype=np.float64), force)
+    left, right = walls
+    wall_overlap = np.array([np.nan, np.nan])
+    wall_k, wall_n = np.zeros(2), np.full(2, 2.0)
+    if left is not None:  # delta_L = d0_L - u_0, with u_0 = x_0 - x0_0
+        wall_overlap[0], wall_k[0], wall_n[0] = left.d0 - (x[0] - left.x0), left.k, left.n
+    if right is not None:  # delta_R = d0_R + u_(N-1)
+        wall_overlap[1], wall_k[1], wall_n[1] = right.d0 + (x[-1] - right.x0), right.k, right.n
+    wall_force = np.zeros(2)
+    _law_forces(law, np.nan_to_num(wall_overlap, nan=0.0), wall_k, wall_n, wall_force)
+    return ContactForces(overlap, force, wall_overlap, wall_force)
 
 
 def friction_state(v, eta_static):
@@ -106,14 +186,20 @@ class VTKSeriesWriter:
         Output folder; frames go to ``folder/vtk/``, the index to ``folder/run.pvd``.
     radius, mass : ndarray, shape (N,)
     k, n : ndarray, shape (N-1,)
-        Contact force coefficients and exponents (from :func:`granular_chain.model.build_model`).
+        Contact force coefficients and exponents (:attr:`granular_chain.Result.model`).
     eta_static : ndarray, shape (N,)
         Static friction thresholds (0 = no Coulomb friction on that granule).
     compression : {"zlib", "lz4", "lzma", None}
         Compression of the binary appended data.
+    walls : (WallContact or None, WallContact or None)
+        The wall contacts (:func:`wall_contacts`); none by default.
+    law : int
+        The run's contact law code (``model.features.law``); the general power
+        law by default.
     """
 
-    def __init__(self, folder, radius, mass, k, n, eta_static, *, compression="zlib"):
+    def __init__(self, folder, radius, mass, k, n, eta_static, *, compression="zlib",
+                 walls=(None, None), law: int = LAW_POWER):
         import pyvista as pv  # heavy: imported only when a VTK series is asked for
         from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
@@ -123,6 +209,8 @@ class VTKSeriesWriter:
         self.k = np.asarray(k, dtype=np.float64)
         self.n = np.asarray(n, dtype=np.float64)
         self.eta_static = np.asarray(eta_static, dtype=np.float64)
+        self.walls = tuple(walls)
+        self.law = int(law)
         N = self.radius.size
         self._points = np.zeros((N, 3))
         lines = np.empty((max(N - 1, 0), 3), dtype=np.int64)
@@ -175,11 +263,13 @@ class VTKSeriesWriter:
         self._v[:] = v
         self._f[:] = f
         self._state[:] = friction_state(v, self.eta_static)
+        contacts = contact_overlap_force(x, self.radius, self.k, self.n, self.walls, self.law)
         if self.radius.size > 1:
-            overlap, force = contact_overlap_force(x, self.radius, self.k, self.n)
-            mesh.cell_data["overlap"][:] = overlap
-            mesh.cell_data["force"][:] = force
-            mesh.cell_data["in_contact"][:] = overlap > 0.0
+            mesh.cell_data["overlap"][:] = contacts.overlap
+            mesh.cell_data["force"][:] = contacts.force
+            mesh.cell_data["in_contact"][:] = contacts.overlap > 0.0
+        mesh.field_data["wall_overlap"] = contacts.wall_overlap
+        mesh.field_data["wall_force"] = contacts.wall_force
         index = len(self._entries)
         mesh.field_data["TimeValue"] = np.array([t], dtype=np.float64)
         mesh.field_data["frame"] = np.array([index], dtype=np.int64)
@@ -226,7 +316,8 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
     folder : path
         Output folder (``run.pvd`` and ``vtk/`` are created in it).
     scene : Scene
-        For radii, masses and contact laws (through :func:`granular_chain.model.build_model`).
+        The run's scene: only for a Result without its chain constants
+        (:func:`granular_chain.readback.run_model`).
     compression : {"zlib", "lz4", "lzma", None}
     progress : bool
         Show a bar of frames written (tqdm).
@@ -235,15 +326,16 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
         (with a valid index of the frames written), so a stop request is
         honoured within one frame.
     """
-    from ..model import build_model
+    from ..readback import run_model
 
-    model = build_model(scene)
+    model = run_model(result, scene)
     frames = range(result.t.size)
     if progress:
         from tqdm import tqdm
         frames = tqdm(frames, desc="writing VTK", unit="frame", leave=False, delay=1.0)
     with VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
-                         model.eta_static, compression=compression) as series:
+                         model.eta_static, compression=compression,
+                         walls=wall_contacts(model), law=model.features.law) as series:
         for i in frames:
             if should_stop is not None and should_stop():
                 break
@@ -269,7 +361,8 @@ class VTKFrames:
     def __init__(self, folder, model, *, compression: Optional[str] = "zlib",
                  resume_frames: Optional[int] = None):
         self.series = VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
-                                      model.eta_static, compression=compression)
+                                      model.eta_static, compression=compression,
+                                      walls=wall_contacts(model), law=model.features.law)
         self._indexed = -1.0
         if resume_frames is not None:
             self._resume(Path(folder), int(resume_frames))

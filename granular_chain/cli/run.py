@@ -1,10 +1,5 @@
-"""The ``granular-chain`` command: run | validate | schema | plot | export | sweep | diagnose |
-figures | boundaries.
-
-Exit status: 0 success, 1 a run that ended without success (its outputs say
-why), 2 bad input (one line on stderr naming the file, the field and the
-problem; nothing written), 130 interrupted by Ctrl-C (SIGINT), 143 terminated
-(SIGTERM): an interrupted run is written as far as it went, marked incomplete.
+"""``granular-chain run SCENE``: run a scene with its writers attached and publish the
+run folder.
 
 What ``run`` writes is asked for by the scene's ``output`` fields or, for one run,
 by flags that override them (``--vtk``, ``--trajectory/--no-trajectory``, ``--csv``,
@@ -19,35 +14,16 @@ rule: a new folder, or an earlier run folder of the engine holding nothing else
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
 from pathlib import Path
 from typing import Optional
 
-from .scene import SceneError, load_scene, scene_json_schema
-
-EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
-EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + signal number, as shells report
+from ..scene import SceneError, load_scene
+from .exit_codes import EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_FAILED, fail
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse with bad usage said in one line (the rule of every refusal here),
-    exit status 2; ``--help`` still prints the whole usage."""
-
-    def error(self, message: str):
-        self.exit(EXIT_BAD_INPUT, f"granular-chain: {self.prog}: {message} "
-                                  f"(see {self.prog} --help)\n")
-
-
-def _parser() -> argparse.ArgumentParser:
-    from . import __version__
-
-    p = _Parser(prog="granular-chain", description=__doc__.splitlines()[0])
-    p.add_argument("--version", action="version", version=f"granular-chain {__version__}")
-    sub = p.add_subparsers(dest="command", required=True)
-
-    run = sub.add_parser("run", help="run a scene and write its outputs")
+def add_parser(subparsers) -> None:
+    run = subparsers.add_parser("run", help="run a scene and write its outputs")
     run.add_argument("scene", help="scene YAML file")
     run.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="dotted.path=value", help="override a scene field (repeatable)")
@@ -73,41 +49,6 @@ def _parser() -> argparse.ArgumentParser:
     writers.add_argument("--plots", action=argparse.BooleanOptionalAction, default=None,
                          help="PNG plots in plots/ (output.plots)")
 
-    val = sub.add_parser("validate", help="check a scene file and report what it contains")
-    val.add_argument("scene")
-    val.add_argument("--set", dest="overrides", action="append", default=[],
-                     metavar="dotted.path=value")
-
-    sub.add_parser("schema", help="print the JSON Schema of scene files")
-
-    plot = sub.add_parser("plot", help="PNG plots of a finished run (reads RUN_DIR/trajectory.h5)")
-    plot.add_argument("run_dir", metavar="RUN_DIR", help="output folder of a run")
-    plot.add_argument("--granules", default=None, metavar="I,J,...",
-                      help="granules for velocities.png (default: first, quarters, last)")
-    plot.add_argument("--time", dest="frame_time", type=float, default=None,
-                      help="time of the frame rendered in frame.png (default: mid-run)")
-    plot.add_argument("--no-render", dest="render", action="store_false",
-                      help="skip frame.png (the pyvista off-screen rendering)")
-    plot.add_argument("--out", default=None,
-                      help="folder for the PNGs (default RUN_DIR/plots)")
-    from .boundaries import add_boundaries_parser
-    from .diagnostics import add_diagnose_parser
-    from .figures import add_figures_parser
-    from .sweep import add_sweep_parser
-
-    add_sweep_parser(sub)
-    add_diagnose_parser(sub)
-    add_figures_parser(sub)
-    add_boundaries_parser(sub)
-    from .writers.export import add_export_parser
-    add_export_parser(sub)
-    return p
-
-
-def _fail(message: str) -> int:
-    print(f"granular-chain: {message}", file=sys.stderr)
-    return EXIT_BAD_INPUT
-
 
 def _apply_writer_flags(scene, args) -> None:
     for name in ("vtk", "trajectory", "csv", "plots"):
@@ -121,7 +62,7 @@ class _Attached:
     are not kept in memory (the plots, drawn after the run, read them back)."""
 
     def __init__(self, scene, model, folder: Path, echo: bool, resume: Optional[dict] = None):
-        from .writers.thermo import ThermoLog, thermo_every
+        from ..writers.thermo import ThermoLog, thermo_every
 
         out, run = scene.output, scene.run
         # a continued run reopens the files at the checkpoint's frame and thermo line
@@ -129,17 +70,18 @@ class _Attached:
         lines = int(resume["thermo_lines"]) if resume is not None else None
         self.writers = []
         if out.trajectory:
-            from .writers.trajectory import TrajectoryFrames
-            self.writers.append(TrajectoryFrames(folder, scene, model.count, frames))
+            from ..writers.trajectory import TrajectoryFrames
+            self.writers.append(TrajectoryFrames(folder, scene, model.count, frames,
+                                                 model=model))
         if out.csv:
-            from .writers.tables import EnergyTable
+            from ..writers.tables import EnergyTable
             self.writers.append(EnergyTable(folder, frames))
         if out.vtk:
-            from .writers.vtk import VTKFrames
+            from ..writers.vtk import VTKFrames
             self.writers.append(VTKFrames(folder, model, resume_frames=frames))
         path = folder / "thermo.csv"
         if run.stepper == "verlet":
-            from .simulate import step_plan
+            from ..simulate import step_plan
             steps = step_plan(model, scene).steps
             self.thermo = ThermoLog(model, thermo_every(steps, out.thermo), path, echo,
                                     resume_lines=lines)
@@ -155,7 +97,7 @@ class _Attached:
     def checkpoint(self, folder: Path, scene):
         """The callback that saves a run's checkpoint with what the writers need to
         reopen their files at it (frames written, thermo lines)."""
-        from .checkpoint import save_checkpoint
+        from ..checkpoint import save_checkpoint
 
         def save(state: dict) -> None:
             state = dict(state)
@@ -185,25 +127,25 @@ def _write_outputs(result, folder: Path, scene, stop) -> list[str]:
     out = scene.output
     missed = []
     if out.csv:
-        from .writers.tables import write_events_csv
+        from ..writers.tables import write_events_csv
         write_events_csv(result, folder)
     if out.plots and stop.requested:
         missed.append("plots")
     elif out.plots:
-        from .writers.plots import write_plots
+        from ..writers.plots import write_plots
         frames = result
         if out.trajectory:  # the run streamed its frames: read them back
-            from .readback import read_run
+            from ..readback import read_run
             frames = read_run(folder / "trajectory.h5")
         write_plots(frames, folder, scene)
-    from .writers.summary import write_summary
+    from ..writers.summary import write_summary
     write_summary(result, folder, scene)
     return missed
 
 
 def _incomplete_reason(result, stop, missed: list[str]) -> str:
     """Why a published run is incomplete ('' when it is complete)."""
-    from .result import Status
+    from ..result import Status
 
     parts = []
     if result.status == Status.INTERRUPTED:
@@ -216,8 +158,8 @@ def _incomplete_reason(result, stop, missed: list[str]) -> str:
 
 def _check_viz(scene) -> None:
     """Refuse --plots / --vtk up front when the [viz] extra is not installed."""
-    from .rundir import OutputError
-    from .writers.plots import viz_missing
+    from ..rundir import OutputError
+    from ..writers.plots import viz_missing
 
     for flag, wanted, modules in (("--plots", scene.output.plots, ("matplotlib", "pyvista")),
                                   ("--vtk", scene.output.vtk, ("pyvista",))):
@@ -228,24 +170,25 @@ def _check_viz(scene) -> None:
 
 def _output_folder(args, scene) -> tuple[Path, bool]:
     """The run's folder and whether it is the default one (not named by --out)."""
-    from .rundir import default_out
+    from ..rundir import default_out
 
     if args.out:
         return Path(args.out), False
     return default_out(scene.name, args.overrides), True
 
 
-def cmd_run(args) -> int:
-    from .rundir import OutputError
-    from .simulate import SimulationError
+def run(args) -> int:
+    """Entry point of ``granular-chain run``."""
+    from ..rundir import OutputError
+    from ..simulate import SimulationError
 
     try:
         scene, model, out, restart = _prepare_run(args)
     except (SceneError, OutputError) as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     except SimulationError as exc:
-        return _fail(f"{args.scene}: {exc}")
-    from .warmup import prepare_kernels
+        return fail(f"{args.scene}: {exc}")
+    from ..warmup import prepare_kernels
     try:
         prepare_kernels(scene, quiet=args.quiet)
     except KeyboardInterrupt:  # numba cannot be interrupted while it compiles
@@ -257,14 +200,14 @@ def cmd_run(args) -> int:
 def _prepare_run(args):
     """Scene, model, output folder and (for --restart) the run to continue; every
     refusal happens here, before anything is written."""
-    from .rundir import check_out
-    from .simulate import preflight
+    from ..rundir import check_out
+    from ..simulate import preflight
 
     scene = load_scene(args.scene, args.overrides)
     _apply_writer_flags(scene, args)
     restart = None
     if args.restart:
-        from .restart import plan_restart
+        from ..restart import plan_restart
         restart = plan_restart(args, scene)
         out = restart.out
     else:
@@ -278,7 +221,7 @@ def _prepare_run(args):
 
 def _note_killed_runs(out: Path) -> None:
     """Say where a killed run to the same folder left a checkpoint (it is kept)."""
-    from .rundir import stale_partials
+    from ..rundir import stale_partials
 
     parent = out.parent if str(out.parent) else Path(".")
     for tmp in stale_partials(parent, out.name, recoverable=True):
@@ -288,11 +231,11 @@ def _note_killed_runs(out: Path) -> None:
 
 def _execute(args, scene, model, out: Path, restart) -> int:
     """Run with the writers attached, then publish the run folder."""
-    from .checkpoint import CHECKPOINT
-    from .interrupts import stop_signals
-    from .result import Status
-    from .rundir import OutputError, RunFolder
-    from .simulate import simulate
+    from ..checkpoint import CHECKPOINT
+    from ..interrupts import stop_signals
+    from ..result import Status
+    from ..rundir import OutputError, RunFolder
+    from ..simulate import simulate
 
     about = {"scene_name": scene.name, "scene_source": str(Path(args.scene).resolve()),
              "overrides": list(args.overrides), "stepper": scene.run.stepper,
@@ -329,7 +272,7 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                 if restart is not None:
                     restart.finish()
         except OutputError as exc:
-            return _fail(str(exc))
+            return fail(str(exc))
         except KeyboardInterrupt:  # a second signal: nothing kept, nothing left behind
             print(f"granular-chain: interrupted; nothing written to {out}", file=sys.stderr)
             return stop.exit_code or EXIT_INTERRUPTED
@@ -350,96 +293,3 @@ def _report(args, result, out: Path, reason: str) -> None:
     print(f"t_final = {result.t_final:.12g}, steps = {result.steps}, "
           f"energy balance error = {result.energy.balance_error:.3g} (relative)")
     print(f"wrote {out}/")
-
-
-def cmd_plot(args) -> int:
-    run_dir = Path(args.run_dir)
-    if not (run_dir / "trajectory.h5").is_file():
-        return _fail(f"{run_dir}: no trajectory.h5 to plot (run with --trajectory, the "
-                     f"default, or output.trajectory: true)")
-    granules = None
-    if args.granules:
-        try:
-            granules = [int(g) for g in args.granules.split(",") if g.strip()]
-        except ValueError:
-            return _fail(f"--granules: {args.granules!r} is not a comma-separated list of "
-                         f"granule indices")
-    from .writers.plots import PLOT_DIR, write_plots
-    from .writers.trajectory import read_trajectory
-
-    try:
-        result, scene = read_trajectory(run_dir)
-    except (OSError, ValueError) as exc:
-        return _fail(f"{run_dir}/trajectory.h5: cannot be read ({exc})")
-    count = result.x.shape[1]
-    if granules is not None and any(not 0 <= g < count for g in granules):
-        return _fail(f"--granules: indices must be in 0..{count - 1}, got {args.granules}")
-    from .rundir import OutputError, adopt_files, check_new_files
-    # --out names the PNG folder itself; by default they go to RUN_DIR/plots/.
-    folder, subdir = (Path(args.out), "") if args.out else (run_dir, PLOT_DIR)
-    names = ("spacetime.png", "energy.png", "velocities.png", "frame.png")
-    try:
-        check_new_files([folder / subdir / n for n in names], "--out" if args.out else "RUN_DIR")
-    except OutputError as exc:
-        return _fail(str(exc))
-    try:
-        paths = write_plots(result, folder, scene, granules=granules,
-                            frame_time=args.frame_time, render=args.render, subdir=subdir)
-    finally:  # the PNGs written so far, even if stopped, join the run's marker
-        written = [folder / subdir / n for n in names if (folder / subdir / n).is_file()]
-        adopt_files(run_dir, [p for p in written if run_dir.resolve() in p.resolve().parents])
-    for path in paths:
-        print(path)
-    return EXIT_OK
-
-
-def cmd_validate(args) -> int:
-    from .simulate import SimulationError, preflight, step_plan
-
-    try:
-        scene = load_scene(args.scene, args.overrides)
-        model = preflight(scene)
-    except SceneError as exc:
-        return _fail(str(exc))
-    except SimulationError as exc:
-        return _fail(f"{args.scene}: {exc}")
-    dt = step_plan(model, scene).dt if scene.run.stepper == "verlet" else None
-    print(json.dumps({
-        "scene": args.scene, "valid": True, "granules": model.count,
-        "features": model.features.describe(), "stepper": scene.run.stepper,
-        "dt": dt, "shortest_contact_time": model.shortest_period(),
-    }, indent=2))
-    return EXIT_OK
-
-
-def main(argv=None) -> int:
-    args = _parser().parse_args(argv)
-    if args.command == "run":
-        return cmd_run(args)
-    if args.command == "validate":
-        return cmd_validate(args)
-    if args.command == "plot":
-        return cmd_plot(args)
-    if args.command == "figures":
-        from .figures import run_figures_command
-        return run_figures_command(args)
-    if args.command == "sweep":
-        from .sweep import run_sweep_command
-        return run_sweep_command(args)
-    if args.command == "diagnose":
-        from .diagnostics import run_diagnose_command
-        return run_diagnose_command(args)
-    if args.command == "export":
-        from .writers.export import run_export_command
-        return run_export_command(args)
-    if args.command == "boundaries":
-        from .boundaries import run_boundaries_command
-        return run_boundaries_command(args)
-    if args.command == "schema":
-        print(json.dumps(scene_json_schema(), indent=2))
-        return EXIT_OK
-    return EXIT_BAD_INPUT  # argparse already refused unknown commands
-
-
-if __name__ == "__main__":
-    sys.exit(main())

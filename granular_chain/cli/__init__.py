@@ -1,0 +1,34 @@
+"""The ``granular-chain`` command: run | validate | schema | plot | export | sweep | diagnose |
+figures | boundaries.
+
+Exit status: 0 success, 1 a run that ended without success (its outputs say
+why), 2 bad input (one line on stderr naming the file, the field and the
+problem; nothing written), 130 interrupted by Ctrl-C (SIGINT), 143 terminated
+(SIGTERM): an interrupted run is written as far as it went, marked incomplete.
+
+What ``run`` writes is asked for by the scene's ``output`` fields or, for one run,
+by flags that override them (``--vtk``, ``--trajectory/--no-trajectory``, ``--csv``,
+``--plots``): run.json and summary.json always, and only the writers asked for.
+The scene stored in summary.json records the choices after the flags.
+
+Where ``run`` writes, and what it may replace, is :mod:`granular_chain.rundir`'s
+rule: a new folder, or an earlier run folder of the engine holding nothing else
+(with ``--overwrite``); written beside the destination and renamed into place.
+
+One module per subcommand (:mod:`.run`, :mod:`.validate`, :mod:`.schema`,
+:mod:`.plot`, :mod:`.sweep`, :mod:`.diagnose`, :mod:`.figures`,
+:mod:`.boundaries`, :mod:`.export`), each with ``add_parser`` and ``run``;
+:mod:`.main` builds the parser and dispatches, :mod:`.exit_codes` holds the
+exit statuses.
+"""
+
+from .exit_codes import (  # noqa: F401  (re-exported)
+    EXIT_BAD_INPUT,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_RUN_FAILED,
+    EXIT_TERMINATED,
+)
+from .main import main
+
+__all__ = ["main"]

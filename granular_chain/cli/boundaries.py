@@ -1,0 +1,14 @@
+"""``granular-chain boundaries``: outcome boundaries of the two-granule collision (the
+command is defined with them, in :mod:`granular_chain.boundaries`)."""
+
+from __future__ import annotations
+
+
+def add_parser(subparsers) -> None:
+    from ..boundaries import add_boundaries_parser
+    add_boundaries_parser(subparsers)
+
+
+def run(args) -> int:
+    from ..boundaries import run_boundaries_command
+    return run_boundaries_command(args)

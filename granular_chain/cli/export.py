@@ -1,0 +1,66 @@
+"""``granular-chain export RUN_DIR --format FMT``: a finished run in another mesh format
+(:mod:`granular_chain.writers.export`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..writers.export import export_run
+
+
+def add_parser(subparsers):
+    """Register ``granular-chain export RUN_DIR --format FMT [--out DIR]``."""
+    p = subparsers.add_parser(
+        "export", help="a finished run in another mesh format (meshio: xdmf, vtu, ...)",
+        description="Write the frames of a run (RUN_DIR/trajectory.h5) for tools that read "
+        "other mesh formats: xdmf (one time series) or one file a frame in any format "
+        "meshio writes from points and lines (vtu, vtk, med, gmsh, ...).")
+    p.add_argument("run_dir", metavar="RUN_DIR")
+    p.add_argument("--format", dest="fmt", default="xdmf", help="xdmf (default), vtu, vtk, ...")
+    p.add_argument("--out", default=None, help="a new folder (default RUN_DIR/export/FORMAT)")
+    return p
+
+
+def run(args) -> int:
+    """Entry point of ``granular-chain export``: 0 written, 2 bad input."""
+    import sys
+
+    from ..readback import read_run, run_model
+    from ..rundir import OutputError, adopt_files, check_new_files
+
+    def fail(message: str) -> int:
+        print(f"granular-chain: {message}", file=sys.stderr)
+        return 2
+
+    run_dir = Path(args.run_dir)
+    if not (run_dir / "trajectory.h5").is_file():
+        return fail(f"{run_dir}: no trajectory.h5 to export (run with output.trajectory: true)")
+    try:
+        import meshio
+    except ImportError:
+        return fail("export needs meshio: pip install 'granular_chain[viz]'")
+    fmt = args.fmt.lower()
+    if fmt != "xdmf" and fmt not in meshio._helpers._writer_map:
+        return fail(f"--format: {args.fmt!r} is not a format meshio writes (known: xdmf, "
+                    f"{', '.join(sorted(meshio._helpers._writer_map))})")
+    out = Path(args.out) if args.out else run_dir / "export" / fmt
+    if args.out and out.exists():
+        return fail(f"--out {out}: exists; name a new folder")
+    try:
+        result = read_run(run_dir)
+    except (OSError, ValueError) as exc:
+        return fail(f"{run_dir}: cannot be read ({exc})")
+    model = run_model(result)
+    try:
+        names = ["run.xdmf", "run.h5"] if fmt == "xdmf" else [
+            f"frame_{q:06d}.{fmt}" for q in range(result.t.size)]
+        check_new_files([out / n for n in names], "--out" if args.out else "RUN_DIR")
+    except OutputError as exc:
+        return fail(str(exc))
+    try:
+        paths = export_run(result, model, out, fmt)
+    finally:  # the files written so far, even if stopped, join the run's marker
+        if not args.out:
+            adopt_files(run_dir, [out / n for n in names if (out / n).is_file()])
+    print(f"wrote {len(paths)} file(s) to {out}/")
+    return 0

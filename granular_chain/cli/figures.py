@@ -1,0 +1,14 @@
+"""``granular-chain figures``: the paper's figures (the command is defined with them,
+in :mod:`granular_chain.figures`)."""
+
+from __future__ import annotations
+
+
+def add_parser(subparsers) -> None:
+    from ..figures import add_figures_parser
+    add_figures_parser(subparsers)
+
+
+def run(args) -> int:
+    from ..figures import run_figures_command
+    return run_figures_command(args)

@@ -1,0 +1,62 @@
+"""``granular-chain plot RUN_DIR``: PNG plots of a finished run (reads its trajectory.h5)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .exit_codes import EXIT_OK, fail
+
+
+def add_parser(subparsers) -> None:
+    plot = subparsers.add_parser(
+        "plot", help="PNG plots of a finished run (reads RUN_DIR/trajectory.h5)")
+    plot.add_argument("run_dir", metavar="RUN_DIR", help="output folder of a run")
+    plot.add_argument("--granules", default=None, metavar="I,J,...",
+                      help="granules for velocities.png (default: first, quarters, last)")
+    plot.add_argument("--time", dest="frame_time", type=float, default=None,
+                      help="time of the frame rendered in frame.png (default: mid-run)")
+    plot.add_argument("--no-render", dest="render", action="store_false",
+                      help="skip frame.png (the pyvista off-screen rendering)")
+    plot.add_argument("--out", default=None,
+                      help="folder for the PNGs (default RUN_DIR/plots)")
+
+
+def run(args) -> int:
+    run_dir = Path(args.run_dir)
+    if not (run_dir / "trajectory.h5").is_file():
+        return fail(f"{run_dir}: no trajectory.h5 to plot (run with --trajectory, the "
+                    f"default, or output.trajectory: true)")
+    granules = None
+    if args.granules:
+        try:
+            granules = [int(g) for g in args.granules.split(",") if g.strip()]
+        except ValueError:
+            return fail(f"--granules: {args.granules!r} is not a comma-separated list of "
+                        f"granule indices")
+    from ..writers.plots import PLOT_DIR, write_plots
+    from ..writers.trajectory import read_trajectory
+
+    try:
+        result, scene = read_trajectory(run_dir)
+    except (OSError, ValueError) as exc:
+        return fail(f"{run_dir}/trajectory.h5: cannot be read ({exc})")
+    count = result.x.shape[1]
+    if granules is not None and any(not 0 <= g < count for g in granules):
+        return fail(f"--granules: indices must be in 0..{count - 1}, got {args.granules}")
+    from ..rundir import OutputError, adopt_files, check_new_files
+    # --out names the PNG folder itself; by default they go to RUN_DIR/plots/.
+    folder, subdir = (Path(args.out), "") if args.out else (run_dir, PLOT_DIR)
+    names = ("spacetime.png", "energy.png", "velocities.png", "frame.png")
+    try:
+        check_new_files([folder / subdir / n for n in names], "--out" if args.out else "RUN_DIR")
+    except OutputError as exc:
+        return fail(str(exc))
+    try:
+        paths = write_plots(result, folder, scene, granules=granules,
+                            frame_time=args.frame_time, render=args.render, subdir=subdir)
+    finally:  # the PNGs written so far, even if stopped, join the run's marker
+        written = [folder / subdir / n for n in names if (folder / subdir / n).is_file()]
+        adopt_files(run_dir, [p for p in written if run_dir.resolve() in p.resolve().parents])
+    for path in paths:
+        print(path)
+    return EXIT_OK

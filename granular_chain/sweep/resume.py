@@ -1,0 +1,120 @@
+"""The results of a sweep on disk: ``results.csv`` (one row per point, appended as
+batches finish) and ``sweep.json`` (what the rows were made from); a rerun reads
+them and computes only the points that are not there yet."""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .grid import Axis, SweepError
+
+__all__ = ["open_results", "read_results", "check_sweep_folder", "scene_text_hash",
+           "read_done"]
+
+#: The sweep.json entries a resumed sweep must share with the one that wrote the rows.
+_SAME_AS_BEFORE = ("scene_sha256", "fixed", "frames", "first")
+
+
+def scene_text_hash(text: str) -> str:
+    """First 16 hex digits of the SHA-256 of the scene file's text."""
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def check_sweep_folder(out_dir: Path) -> None:
+    """A sweep writes into a new or empty folder, or resumes one holding its own
+    sweep.json; any other folder is the user's and is refused (nothing changed)."""
+    if out_dir.is_symlink() or (out_dir.exists() and not out_dir.is_dir()):
+        raise SweepError(f"--out {out_dir}: is not a folder")
+    if not out_dir.exists() or not any(out_dir.iterdir()):
+        return
+    try:
+        meta = json.loads((out_dir / "sweep.json").read_text())
+    except (OSError, ValueError):
+        meta = None
+    if not isinstance(meta, dict) or "scene_sha256" not in meta:
+        raise SweepError(f"--out {out_dir}: exists and is not a sweep folder (no sweep.json "
+                         f"written by granular-chain sweep); nothing was changed: name a new "
+                         f"folder")
+
+
+def open_results(out_dir: Path, meta: dict, axes: Sequence[Axis], header: list[str],
+                 restart: bool) -> tuple[Path, set]:
+    """Prepare ``out_dir`` for a sweep: ``(results.csv path, coordinates already done)``.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The sweep's folder (created if need be; see :func:`check_sweep_folder`).
+    meta : dict
+        What the rows are made from (scene hash, fixed overrides, options): a
+        results.csv made from something else is refused; written to sweep.json
+        with the axes.
+    axes : sequence of Axis
+    header : list of str
+        The CSV columns, the axes' dotted paths first.
+    restart : bool
+        Discard an existing results.csv.
+    """
+    check_sweep_folder(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    results = out_dir / "results.csv"
+    meta_path = out_dir / "sweep.json"
+    if restart and results.exists():
+        results.unlink()
+    if results.exists() and meta_path.exists():
+        old = json.loads(meta_path.read_text())
+        for key in _SAME_AS_BEFORE:
+            if old.get(key) != meta[key]:
+                raise SweepError(
+                    f"{results} was made with a different {key} ({old.get(key)!r}, now "
+                    f"{meta[key]!r}); use another --out, or --restart to discard it")
+    done = read_done(results, header, [a.path for a in axes])
+    meta = {**meta, "axes": [a.spec for a in axes]}
+    meta_path.write_text(json.dumps(meta, indent=2) + "\n")
+    return results, done
+
+
+def read_done(path: Path, header: list[str], paths: Sequence[str]) -> set:
+    """Coordinates already in results.csv; drops a last row cut short by a hard kill."""
+    if not path.exists():
+        return set()
+    text = path.read_text()
+    if not text:
+        return set()
+    if not text.endswith("\n"):  # a partial last line: cut it off, the point reruns
+        text = text[: text.rfind("\n") + 1]
+        with open(path, "r+") as fh:
+            fh.truncate(len(text.encode()))
+    reader = csv.reader(io.StringIO(text))
+    try:
+        found = next(reader)
+    except StopIteration:
+        return set()
+    if found != header:
+        raise SweepError(
+            f"{path}: its columns {found[:len(paths)]}... differ from this sweep's "
+            f"{header[:len(paths)]}...; use another --out or --restart")
+    k = len(paths)
+    return {tuple(r[:k]) for r in reader if len(r) == len(header)}
+
+
+def read_results(path) -> dict[str, np.ndarray]:
+    """results.csv as columns: numbers as float arrays (blank = nan), the rest as str arrays."""
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    cols = {}
+    names = rows[0].keys() if rows else []
+    for name in names:
+        raw = [r[name] for r in rows]
+        try:
+            cols[name] = np.array([float(x) if x != "" else np.nan for x in raw])
+        except ValueError:
+            cols[name] = np.array(raw, dtype=object)
+    return cols
