@@ -12,13 +12,10 @@ import os
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The parser of the ``granular-chain`` command.
-
-    The one place this page learns where the parser lives: when the command
-    line moves (e.g. into a ``granular_chain.cli`` package), change this import.
-    """
-    from granular_chain.cli import _parser
-    return _parser()
+    """The parser of the ``granular-chain`` command (the one place this page
+    learns where the parser lives)."""
+    from granular_chain.cli.main import build_parser as build
+    return build()
 
 
 def subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
