@@ -90,9 +90,9 @@ def _parser() -> argparse.ArgumentParser:
                       help="skip frame.png (the pyvista off-screen rendering)")
     plot.add_argument("--out", default=None,
                       help="folder for the PNGs (default RUN_DIR/plots)")
-    from .boundaries import add_boundaries_parser
+    from .two_granules.boundaries import add_boundaries_parser
     from .diagnostics import add_diagnose_parser
-    from .figures import add_figures_parser
+    from .paper.figures import add_figures_parser
     from .sweep import add_sweep_parser
 
     add_sweep_parser(sub)
@@ -421,7 +421,7 @@ def main(argv=None) -> int:
     if args.command == "plot":
         return cmd_plot(args)
     if args.command == "figures":
-        from .figures import run_figures_command
+        from .paper.figures import run_figures_command
         return run_figures_command(args)
     if args.command == "sweep":
         from .sweep import run_sweep_command
@@ -433,7 +433,7 @@ def main(argv=None) -> int:
         from .writers.export import run_export_command
         return run_export_command(args)
     if args.command == "boundaries":
-        from .boundaries import run_boundaries_command
+        from .two_granules.boundaries import run_boundaries_command
         return run_boundaries_command(args)
     if args.command == "schema":
         print(json.dumps(scene_json_schema(), indent=2))

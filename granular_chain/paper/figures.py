@@ -49,9 +49,9 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from . import paper
-from .result import Status
-from .two_granules import Outcome, collide, collision_map
+from .. import paper
+from ..codes import Status
+from ..two_granules import OUTCOMES, Outcome, collide, collision_map
 
 __all__ = [
     "collision_values", "collision_grid", "hertz_maps",
@@ -62,9 +62,7 @@ __all__ = [
 
 SQRT2 = math.sqrt(2.0)
 
-#: Outcome codes of :func:`collision_values` (index into this tuple).
-OUTCOME_NAMES = tuple(o.name for o in Outcome)
-_BOTH = OUTCOME_NAMES.index("backscatter_and_propagation")
+_BOTH = OUTCOMES.index(Outcome.backscatter_and_propagation)
 
 
 # ----------------------------------------------------------------------------
@@ -88,7 +86,7 @@ def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> d
     dict of ndarray, shape (P,)
         ``v1``, ``v2`` (velocities at separation, units of v0), ``energy`` (E/E0),
         ``t_sep`` (separation time, units of B; inf if never), ``outcome``
-        (index into :data:`OUTCOME_NAMES`), ``t_stop1`` (first stop of granule 1,
+        (index into :data:`~granular_chain.two_granules.OUTCOMES`), ``t_stop1`` (first stop of granule 1,
         NaN if it never stops).
 
     Raises
@@ -537,7 +535,7 @@ def run_figures_command(args) -> int:
     return 0
 
 
-if __name__ == "__main__":  # pragma: no cover - convenience: python -m granular_chain.figures
-    ap = argparse.ArgumentParser(prog="python -m granular_chain.figures")
+if __name__ == "__main__":  # pragma: no cover - convenience: python -m granular_chain.paper.figures
+    ap = argparse.ArgumentParser(prog="python -m granular_chain.paper.figures")
     add_figures_parser(ap.add_subparsers(dest="command", required=True))
     sys.exit(run_figures_command(ap.parse_args()))
