@@ -46,7 +46,8 @@ from __future__ import annotations
 from .contact_and_scaling import (force_coefficient_from_potential_coefficient, hertz_a_printed,
                                   hertz_force_coefficient_spheres, hertz_potential_corrected,
                                   hertz_potential_printed, scaling_corrected, scaling_printed)
-from .coulomb_on_granule1 import (iib_backscatter_threshold_eta_exact, iib_collision_exact,
+from .coulomb_on_granule1 import (iib_back_sliding_overlap, iib_back_sliding_v1,
+                                  iib_backscatter_threshold_eta_exact, iib_collision_exact,
                                   iib_initial_conditions_exact, iib_initial_conditions_small_eta,
                                   iib_max_backscatter_exact, iib_slip_critical_eta_exact,
                                   iib_slip_critical_eta_printed, iib_slip_force_printed,
@@ -80,7 +81,7 @@ __all__ = [
     "iib_initial_conditions_small_eta", "iib_initial_conditions_exact",
     "iib_slip_force_printed", "iib_slip_critical_eta_printed",
     "iib_slip_critical_eta_exact", "iib_t1_small_eta", "iib_t1_small_eta_next_order",
-    "iib_collision_exact",
+    "iib_back_sliding_overlap", "iib_back_sliding_v1", "iib_collision_exact",
     "iib_backscatter_threshold_eta_exact", "iib_max_backscatter_exact",
     # Sec III
     "iii_gammas", "iii_omega", "iii_t0", "iii_separates", "iii_xminus_zeroth",

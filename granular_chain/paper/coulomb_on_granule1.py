@@ -20,7 +20,8 @@ __all__ = ["iib_x1", "iib_x2", "iib_v1", "iib_v2", "iib_t0_small_eta",
            "iib_initial_conditions_small_eta", "iib_initial_conditions_exact",
            "iib_slip_force_printed", "iib_slip_critical_eta_printed",
            "iib_slip_critical_eta_exact", "iib_t1_small_eta", "iib_t1_small_eta_next_order",
-           "iib_collision_exact", "iib_backscatter_threshold_eta_exact",
+           "iib_back_sliding_overlap", "iib_back_sliding_v1", "iib_collision_exact",
+           "iib_backscatter_threshold_eta_exact",
            "iib_max_backscatter_exact"]
 
 
@@ -299,6 +300,42 @@ def iib_t1_small_eta_next_order(eta):
     return arith.sqrt(a) - eta + a * arith.sqrt(a) / 12
 
 
+def iib_back_sliding_overlap(tp, eta, u0, v20):
+    """Sec. II B Eqs. (``motionx1``, ``motionx2``): overlap ``u = x1 - x2`` while granule 1
+    slides back (derived here; exact).
+
+    ``u(t') = eta/2 + (u0 - eta/2) cos(sqrt2 t') - v20/sqrt2 sin(sqrt2 t')``, ``t' = t - t0``.
+
+    Parameters
+    ----------
+    tp : float or mpf
+        Time since granule 1 stopped, ``t' = t - t0``.
+    eta : float or mpf
+        Scaled friction of granule 1.
+    u0, v20 : float or mpf
+        Overlap and velocity of granule 2 when granule 1 stopped (``u0 > eta``).
+
+    Returns
+    -------
+    Same type as ``tp``
+    """
+    arith = arithmetic_for(tp, eta, u0, v20)
+    r2 = arith.sqrt(arith.num(2))
+    return eta / 2 + (u0 - eta / 2) * arith.cos(r2 * tp) - v20 / r2 * arith.sin(r2 * tp)
+
+
+def iib_back_sliding_v1(tp, eta, u0, v20):
+    """Velocity of granule 1 while it slides back (Sec. II B, derived here; exact).
+
+    ``v1(t') = [v20 (1 - cos(sqrt2 t')) + eta t' - sqrt2 (u0 - eta/2) sin(sqrt2 t')]/2``;
+    arguments as :func:`iib_back_sliding_overlap`. Its first positive root is the time
+    granule 1 would stop again (the dashed curve of Fig. ``timecompare3``).
+    """
+    arith = arithmetic_for(tp, eta, u0, v20)
+    r2 = arith.sqrt(arith.num(2))
+    return (v20 * (1 - arith.cos(r2 * tp)) + eta * tp - r2 * (u0 - eta / 2) * arith.sin(r2 * tp)) / 2
+
+
 def iib_collision_exact(eta, dps=30):
     """Exact solution of the Sec. II B problem (friction ``eta`` on granule 1 only).
 
@@ -335,17 +372,15 @@ def iib_collision_exact(eta, dps=30):
         out = {"t0": t0, "u0": u0, "v20": v20, "slides_back": bool(u0 > e),
                "t1": None, "t_stop": None}
         if u0 > e:
-            A = u0 - e / 2
-
             def u(tp):
-                return e / 2 + A * mpmath.cos(r2 * tp) - v20 / r2 * mpmath.sin(r2 * tp)
+                return iib_back_sliding_overlap(tp, e, u0, v20)
 
             def v1(tp):
-                return (v20 * (1 - mpmath.cos(r2 * tp)) + e * tp - r2 * A * mpmath.sin(r2 * tp)) / 2
+                return iib_back_sliding_v1(tp, e, u0, v20)
 
-            # u decreases from u0 > 0 to its minimum eta/2 - R < 0 at theta = pi - psi
-            R = mpmath.sqrt(A**2 + v20**2 / 2)
-            psi = mpmath.atan2(v20 / r2, A)
+            # u decreases from u0 > 0 to its minimum eta/2 - sqrt(A^2 + v20^2/2) < 0
+            # at theta = pi - psi, A = u0 - eta/2
+            psi = mpmath.atan2(v20 / r2, u0 - e / 2)
             t1 = bracket_root(u, mpmath.mpf(0), (mpmath.pi - psi) / r2)
             # v1 < 0 just after 0 and v1(theta = 2 pi) = eta pi > 0
             t_stop = first_root_after(v1, mpmath.pi * r2, mpmath.mpf(1) / 64)

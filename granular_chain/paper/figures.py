@@ -233,9 +233,8 @@ def iib_back_sliding_times(eta: np.ndarray, u0: np.ndarray, v20: np.ndarray):
     """Times after the stop of granule 1 in Sec. II B, from the state at that stop.
 
     With granule 1 sliding back (Eqs. ``motionx1``, ``motionx2``, ``t' = t - t0``)
-    the motion is linear:
-    ``u(t') = eta/2 + (u0 - eta/2) cos(sqrt2 t') - v20/sqrt2 sin(sqrt2 t')`` and
-    ``v1(t') = [v20 (1 - cos(sqrt2 t')) + eta t' - sqrt2 (u0 - eta/2) sin(sqrt2 t')]/2``.
+    the overlap and v1 are :func:`~granular_chain.paper.iib_back_sliding_overlap` and
+    :func:`~granular_chain.paper.iib_back_sliding_v1`; their roots are found with brentq.
 
     Parameters
     ----------
@@ -253,16 +252,14 @@ def iib_back_sliding_times(eta: np.ndarray, u0: np.ndarray, v20: np.ndarray):
     t1 = np.full(len(eta), np.nan)
     ts = np.full(len(eta), np.nan)
     for i, (e, u_0, w) in enumerate(zip(eta, u0, v20)):
-        A = u_0 - e / 2
-
         def u(tp):
-            return e / 2 + A * math.cos(SQRT2 * tp) - w / SQRT2 * math.sin(SQRT2 * tp)
+            return paper.iib_back_sliding_overlap(tp, e, u_0, w)
 
         def v1(tp):
-            return (w * (1 - math.cos(SQRT2 * tp)) + e * tp - SQRT2 * A * math.sin(SQRT2 * tp)) / 2
+            return paper.iib_back_sliding_v1(tp, e, u_0, w)
         # u falls from u0 to its minimum at theta = pi - psi; v1 < 0 just after 0 and
         # v1(theta = 2 pi) = eta pi > 0, so both roots are bracketed
-        psi = math.atan2(w / SQRT2, A)
+        psi = math.atan2(w / SQRT2, u_0 - e / 2)
         t1[i] = brentq(u, 0.0, (math.pi - psi) / SQRT2, xtol=1e-15, rtol=1e-15)
         grid = np.linspace(0.0, 2 * math.pi / SQRT2, 257)[1:]
         vals = np.array([v1(t) for t in grid])
