@@ -333,7 +333,8 @@ def iib_back_sliding_v1(tp, eta, u0, v20):
     """
     arith = arithmetic_for(tp, eta, u0, v20)
     r2 = arith.sqrt(arith.num(2))
-    return (v20 * (1 - arith.cos(r2 * tp)) + eta * tp - r2 * (u0 - eta / 2) * arith.sin(r2 * tp)) / 2
+    return (v20 * (1 - arith.cos(r2 * tp)) + eta * tp
+            - r2 * (u0 - eta / 2) * arith.sin(r2 * tp)) / 2
 
 
 def iib_collision_exact(eta, dps=30):

@@ -86,8 +86,8 @@ def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> d
     dict of ndarray, shape (P,)
         ``v1``, ``v2`` (velocities at separation, units of v0), ``energy`` (E/E0),
         ``t_sep`` (separation time, units of B; inf if never), ``outcome``
-        (index into :data:`~granular_chain.two_granules.OUTCOMES`), ``t_stop1`` (first stop of granule 1,
-        NaN if it never stops).
+        (index into :data:`~granular_chain.two_granules.OUTCOMES`), ``t_stop1`` (first
+        stop of granule 1, NaN if it never stops).
 
     Raises
     ------

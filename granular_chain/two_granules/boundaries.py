@@ -189,16 +189,16 @@ def _kinds(c) -> tuple:
     return tuple(e.kind for e in c.result.events)
 
 
-def _indicator(la: str, lb: str, n: float):
+def _indicator(label_a: str, label_b: str, n: float):
     """A function Collision -> float that vanishes smoothly at the boundary between
-    outcomes ``la`` and ``lb`` (zero on one side, or changing sign), and its name;
+    outcomes ``label_a`` and ``label_b`` (zero on one side, or changing sign), and its name;
     None where the outcomes differ in more than one way."""
-    if "no_separation" in (la, lb):
+    if "no_separation" in (label_a, label_b):
         if float(n) == 2.0:
             return (lambda c: 0.0 if not math.isfinite(c.t_separation)
                     else c.t_separation ** -2.0), "1/t_sep^2"
         return (lambda c: 0.0 if not math.isfinite(c.t_separation) else c.v2 - c.v1), "v2-v1"
-    sa, sb = _SIGNS.get(la), _SIGNS.get(lb)
+    sa, sb = _SIGNS.get(label_a), _SIGNS.get(label_b)
     if sa is None or sb is None:
         return None
     diff = [i for i in (0, 1) if sa[i] != sb[i]]
@@ -239,16 +239,17 @@ def _refine(prob: _Problem, a, coll_a, b, coll_b, tol: float) -> list:
     identically on one side, so every bracket end must be an engine result
     whose label is checked, and a probe may find a third outcome."""
     start, t0 = prob.count, time.perf_counter()
-    la, lb = prob.label(coll_a), prob.label(coll_b)
-    oa, ob = coll_a.outcome.name, coll_b.outcome.name
+    label_a, label_b = prob.label(coll_a), prob.label(coll_b)
+    outcome_a, outcome_b = coll_a.outcome.name, coll_b.outcome.name
     n = prob.point(a)["n"]
-    ind = _indicator(oa, ob, n) if oa != ob and prob.secant else None
-    fn, method = ind if ind is not None else (None, "bisection")
-    if fn is not None:
+    ind = _indicator(outcome_a, outcome_b, n) if outcome_a != outcome_b and prob.secant else None
+    indicator_of, method = ind if ind is not None else (None, "bisection")
+    if indicator_of is not None:
         method = "secant:" + method
-    pts = [(x, f) for x, c in ((a, coll_a), (b, coll_b)) for f in ([fn(c)] if fn else [])
+    pts = [(x, f) for x, c in ((a, coll_a), (b, coll_b))
+           for f in ([indicator_of(c)] if indicator_of else [])
            if f != 0.0 and math.isfinite(f)]
-    g_prev, bisect, power, failures = None, fn is None, 1.0, 0
+    g_prev, bisect, power, failures = None, indicator_of is None, 1.0, 0
     while not _narrow(a, b, tol, prob.floor):
         width = b - a
         probes = []
@@ -266,46 +267,47 @@ def _refine(prob: _Problem, a, coll_a, b, coll_b, tol: float) -> list:
                 continue
             c = prob.collide(x)
             lab = prob.label(c)
-            if lab == la:
+            if lab == label_a:
                 a, coll_a = x, c
-            elif lab == lb:
+            elif lab == label_b:
                 b, coll_b = x, c
             else:  # a third outcome inside: two (or more) boundaries
                 return _refine(prob, a, coll_a, x, c, tol) + _refine(prob, x, c, b, coll_b, tol)
-            if fn is not None:
-                f = fn(c)
+            if indicator_of is not None:
+                f = indicator_of(c)
                 if f != 0.0 and math.isfinite(f):
                     pts.append((x, f))
         # a secant round that did not halve the bracket: bisect once and switch
         # between the indicator and its square (square-root vanishing); after four
         # such rounds, bisection only
-        bisect = fn is None or (not bisect and b - a > width / 2)
-        if bisect and fn is not None and g is not None:
+        bisect = indicator_of is None or (not bisect and b - a > width / 2)
+        if bisect and indicator_of is not None and g is not None:
             g_prev, failures = None, failures + 1
             power = 3.0 - power  # 1 <-> 2
             if failures >= 4:
-                fn, method = None, method + "+bisection"
-    return [Boundary(param=prob.param, value=a + (b - a) / 2, bracket=(a, b), below=oa, above=ob,
+                indicator_of, method = None, method + "+bisection"
+    return [Boundary(param=prob.param, value=a + (b - a) / 2, bracket=(a, b), below=outcome_a,
+                     above=outcome_b,
                      collisions=prob.count - start, seconds=time.perf_counter() - t0,
                      method=method, events_below=_kinds(coll_a), events_above=_kinds(coll_b))]
 
 
-def _stepper_error(prob: _Problem, bd: Boundary, tol: float) -> Boundary:
-    """``bd`` with ``error`` = its change when refound with rtol/10 (n != 2): the
-    stepper's contribution. Counts those collisions and seconds into ``bd``."""
+def _stepper_error(prob: _Problem, boundary: Boundary, tol: float) -> Boundary:
+    """``boundary`` with ``error`` = its change when refound with rtol/10 (n != 2): the
+    stepper's contribution. Counts those collisions and seconds into ``boundary``."""
     t0, start = time.perf_counter(), prob.count
     tight = _Problem(prob.param, prob.values, prob.by, (prob.rtol or 1e-12) / 10, prob.t_max)
     tight.floor, tight.secant = prob.floor, prob.secant
-    x, h = bd.value, max(1e-7 * abs(bd.value), 1e-12)
+    x, h = boundary.value, max(1e-7 * abs(boundary.value), 1e-12)
     coll_a, coll_b = tight.collide(x - h), tight.collide(x + h)
     found = []
-    if (coll_a.outcome.name, coll_b.outcome.name) == (bd.below, bd.above):
+    if (coll_a.outcome.name, coll_b.outcome.name) == (boundary.below, boundary.above):
         found = [b for b in _refine(tight, x - h, coll_a, x + h, coll_b, tol)
-                 if (b.below, b.above) == (bd.below, bd.above)]
+                 if (b.below, b.above) == (boundary.below, boundary.above)]
     err = abs(found[0].value - x) if len(found) == 1 else None
-    return Boundary(**{**asdict(bd), "bracket": bd.bracket, "error": err,
-                       "collisions": bd.collisions + tight.count + prob.count - start,
-                       "seconds": bd.seconds + time.perf_counter() - t0})
+    return Boundary(**{**asdict(boundary), "bracket": boundary.bracket, "error": err,
+                       "collisions": boundary.collisions + tight.count + prob.count - start,
+                       "seconds": boundary.seconds + time.perf_counter() - t0})
 
 
 def find_boundaries(param: str, lo: float, hi: float, fixed: Optional[dict] = None,
@@ -518,25 +520,26 @@ class _Plane:
         return bool(b[0, 0] <= p[0] <= b[0, 1] and b[1, 0] <= p[1] <= b[1, 1])
 
     def line(self, base, direction) -> _LineProblem:
-        pr = _LineProblem(self.plane, np.asarray(base, float), np.asarray(direction, float),
-                          self.values, self.t_max, self.rtol)
-        pr.floor = self.tol * max(float(np.hypot(*base)), 1e-3 * self.scale)
-        return pr
+        line_problem = _LineProblem(self.plane, np.asarray(base, float),
+                                    np.asarray(direction, float), self.values, self.t_max,
+                                    self.rtol)
+        line_problem.floor = self.tol * max(float(np.hypot(*base)), 1e-3 * self.scale)
+        return line_problem
 
     def cross(self, q, nrm, w, pair):
         """Find the boundary ``pair`` = (below, above) across the segment q -+ w nrm.
         Returns (point, normal, labels at the two ends); point None if the ends do
         not show exactly the pair."""
-        pr = self.line(q - w * nrm, nrm)
+        line_problem = self.line(q - w * nrm, nrm)
         ends = (q - w * nrm, q + w * nrm)
         if not (self.inside(ends[0]) and self.inside(ends[1])):
             return None, None, ("outside",)
-        coll_a, coll_b = pr.collide(0.0), pr.collide(2 * w)
+        coll_a, coll_b = line_problem.collide(0.0), line_problem.collide(2 * w)
         labs = (coll_a.outcome.name, coll_b.outcome.name)
         found = []
         if labs == pair:
-            found = _refine(pr, 0.0, coll_a, 2 * w, coll_b, 1e-300)
-        self.count += pr.count
+            found = _refine(line_problem, 0.0, coll_a, 2 * w, coll_b, 1e-300)
+        self.count += line_problem.count
         if len(found) != 1:
             return None, None, labs + tuple(x for b in found for x in (b.below, b.above))
         return q + (found[0].value - w) * nrm, nrm, labs
@@ -558,20 +561,21 @@ class _Plane:
 def _seed_line(plane, box, values, tol, t_max, rtol, base, direction, length, grid):
     """Boundary points on one straight line of the plane (a dask task): a list of
     (point, direction, below, above, collisions)."""
-    pl = _Plane(plane, box, values, tol, t_max, rtol)
-    pr = pl.line(np.asarray(base, float), np.asarray(direction, float))
+    tracer = _Plane(plane, box, values, tol, t_max, rtol)
+    line_problem = tracer.line(np.asarray(base, float), np.asarray(direction, float))
     ss = np.linspace(0.0, length, grid)
-    cs = [pr.collide(float(s)) for s in ss]
+    cs = [line_problem.collide(float(s)) for s in ss]
     out = []
     for i in range(grid - 1):
         if cs[i].outcome.name != cs[i + 1].outcome.name:
-            for b in _refine(pr, float(ss[i]), cs[i], float(ss[i + 1]), cs[i + 1], 1e-300):
+            for b in _refine(line_problem, float(ss[i]), cs[i], float(ss[i + 1]), cs[i + 1],
+                             1e-300):
                 p = np.asarray(base, float) + b.value * np.asarray(direction, float)
                 out.append((p, np.asarray(direction, float), b.below, b.above, b.collisions))
     return out
 
 
-def _trace_dir(pl: _Plane, p0, n0, pair, steps, sign, max_points):
+def _trace_dir(tracer: _Plane, p0, n0, pair, steps, sign, max_points):
     """Follow the curve from p0 along sign * (n0 turned by +90 degrees)."""
     h, hmin, hmax = steps
     p, nrm = p0, n0
@@ -581,12 +585,12 @@ def _trace_dir(pl: _Plane, p0, n0, pair, steps, sign, max_points):
         tan = sign * np.array([-nrm[1], nrm[0]])
         q, w, saw = None, h, None
         while True:
-            q, _, labs = pl.cross(p + h * tan, nrm, w, pair)
+            q, _, labs = tracer.cross(p + h * tan, nrm, w, pair)
             # a third outcome across the segment: the pair's band may be a wedge
             # thinner than w; narrow the segment before shortening the step
             if q is None and set(labs) - set(pair) - {"outside"}:
                 saw = (p + h * tan, nrm, w, labs, tan)
-                if w > 1e-9 * pl.scale:
+                if w > 1e-9 * tracer.scale:
                     w /= 8
                     continue
             break
@@ -661,17 +665,18 @@ def trace_curves(plane=("eta1", "eta2"), box=((0.0, 1.0), (0.0, 1.0)), fixed=Non
         searches' collisions are added to the first curve's ``collisions``.
     """
     t0 = time.perf_counter()
-    pl = _Plane(plane, box, fixed, tol, t_max, rtol)
-    size = float(max(pl.box[:, 1] - pl.box[:, 0]))
+    tracer = _Plane(plane, box, fixed, tol, t_max, rtol)
+    size = float(max(tracer.box[:, 1] - tracer.box[:, 0]))
     steps = (0.5 * step * size, min_step * size, step * size)
     lines = []
     for k in range(seeds):
         f = (k + 0.5) / seeds
-        y = pl.box[1, 0] + f * (pl.box[1, 1] - pl.box[1, 0])
-        x = pl.box[0, 0] + f * (pl.box[0, 1] - pl.box[0, 0])
-        lines.append(((pl.box[0, 0], y), (1.0, 0.0), pl.box[0, 1] - pl.box[0, 0]))
-        lines.append(((x, pl.box[1, 0]), (0.0, 1.0), pl.box[1, 1] - pl.box[1, 0]))
-    args = [(pl.plane, pl.box, pl.values, tol, t_max, rtol, b, d, ln, grid) for b, d, ln in lines]
+        y = tracer.box[1, 0] + f * (tracer.box[1, 1] - tracer.box[1, 0])
+        x = tracer.box[0, 0] + f * (tracer.box[0, 1] - tracer.box[0, 0])
+        lines.append(((tracer.box[0, 0], y), (1.0, 0.0), tracer.box[0, 1] - tracer.box[0, 0]))
+        lines.append(((x, tracer.box[1, 0]), (0.0, 1.0), tracer.box[1, 1] - tracer.box[1, 0]))
+    args = [(tracer.plane, tracer.box, tracer.values, tol, t_max, rtol, b, d, ln, grid)
+            for b, d, ln in lines]
     found = _run_tasks(_seed_line, args, executor, client, workers)
     seed_cost = sum(c for res in found for *_, c in res) + len(lines) * grid
     curves = []
@@ -681,17 +686,17 @@ def trace_curves(plane=("eta1", "eta2"), box=((0.0, 1.0), (0.0, 1.0)), fixed=Non
         if any(set(pair) == {c.below, c.above} and
                np.min(np.hypot(*(c.points - p).T)) < steps[2] for c in curves):
             continue
-        c = _trace_from(pl, p, d, pair, steps, max_points)
+        c = _trace_from(tracer, p, d, pair, steps, max_points)
         if c is None:
             continue
         curves.append(c)
-        queue.extend(_corner_seeds(pl, c))
+        queue.extend(_corner_seeds(tracer, c))
     if curves:
         curves[0].collisions += seed_cost  # the seed searches, counted once
     return curves
 
 
-def _corner_seeds(pl: _Plane, curve: BoundaryCurve) -> list:
+def _corner_seeds(tracer: _Plane, curve: BoundaryCurve) -> list:
     """Seeds of the curves that start where ``curve`` ended at a third outcome:
     segments across the continued tangent, 1, 2, 4, 8 and 16 final steps beyond the
     corner, cross them (a curve ending at a corner usually lies in a narrow wedge
@@ -700,34 +705,34 @@ def _corner_seeds(pl: _Plane, curve: BoundaryCurve) -> list:
     for q, nrm, w, labs, tan in curve.corners:
         for k in (1, 2, 4, 8, 16):
             c = q + k * w * tan
-            pr = pl.line(c - (k + 1) * w * nrm, nrm)
-            if not (pl.inside(c - (k + 1) * w * nrm) and pl.inside(c + (k + 1) * w * nrm)):
+            line_problem = tracer.line(c - (k + 1) * w * nrm, nrm)
+            if not (tracer.inside(c - (k + 1) * w * nrm) and tracer.inside(c + (k + 1) * w * nrm)):
                 break
-            coll_a, coll_b = pr.collide(0.0), pr.collide(2 * (k + 1) * w)
+            coll_a, coll_b = line_problem.collide(0.0), line_problem.collide(2 * (k + 1) * w)
             if coll_a.outcome != coll_b.outcome:
-                for b in _refine(pr, 0.0, coll_a, 2 * (k + 1) * w, coll_b, 1e-300):
+                for b in _refine(line_problem, 0.0, coll_a, 2 * (k + 1) * w, coll_b, 1e-300):
                     out.append((c + (b.value - (k + 1) * w) * nrm, nrm, (b.below, b.above)))
-            pl.count += pr.count
+            tracer.count += line_problem.count
     return out
 
 
-def _trace_from(pl: _Plane, p, d, pair, steps, max_points) -> Optional[BoundaryCurve]:
+def _trace_from(tracer: _Plane, p, d, pair, steps, max_points) -> Optional[BoundaryCurve]:
     """The curve through the seed p (found across direction d), or None if no
     second point can be found near it."""
-    t0, start = time.perf_counter(), pl.count
-    n0 = pl.first_normal(p, d, pair, steps[1] * 4)
+    t0, start = time.perf_counter(), tracer.count
+    n0 = tracer.first_normal(p, d, pair, steps[1] * 4)
     if n0 is None:
         return None
-    fwd, nf, r1, c1 = _trace_dir(pl, p, n0, pair, steps, 1.0, max_points)
+    fwd, nf, r1, c1 = _trace_dir(tracer, p, n0, pair, steps, 1.0, max_points)
     if r1 == "closed":
         bwd, nb, r0, c0 = [], [], "closed", []
     else:
-        bwd, nb, r0, c0 = _trace_dir(pl, p, n0, pair, steps, -1.0, max_points)
+        bwd, nb, r0, c0 = _trace_dir(tracer, p, n0, pair, steps, -1.0, max_points)
     pts = np.array(bwd[::-1] + [p] + fwd)
     nrms = np.array(nb[::-1] + [n0] + nf)
-    return BoundaryCurve(plane=pl.plane, below=pair[0], above=pair[1], points=pts, normals=nrms,
+    return BoundaryCurve(plane=tracer.plane, below=pair[0], above=pair[1], points=pts, normals=nrms,
                          closed=r1 == "closed", ends=(r0, r1), corners=c0 + c1,
-                         collisions=pl.count - start, seconds=time.perf_counter() - t0)
+                         collisions=tracer.count - start, seconds=time.perf_counter() - t0)
 
 
 def _run_tasks(fn, args, executor, client, workers):
