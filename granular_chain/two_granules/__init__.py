@@ -7,15 +7,16 @@ module             contents
 ``problem``        the scene (:func:`two_granule_scene`), :func:`collide`,
                    :class:`Collision`, :func:`classify`
 ``maps``           :func:`collision_map`: many collisions in a compiled loop
-``boundaries``     where the outcome changes: :func:`find_boundaries`,
-                   :func:`trace_curves`, ``granular-chain boundaries``
+``boundaries``     where the outcome changes along a path: :func:`find_boundaries`,
+                   ``granular-chain boundaries``
+``curves``         boundary curves in a plane of two frictions: :func:`trace_curves`
 =================  ===========================================================
 
 Scaled units (Appendix A of the paper; :mod:`granular_chain.units`).
 """
 
-from .boundaries import (PARAMS, Boundaries, Boundary, BoundaryCurve, find_boundaries,
-                         plot_curves, separation_limit, trace_curves, write_curves)
+from .boundaries import PARAMS, Boundaries, Boundary, find_boundaries, separation_limit
+from .curves import BoundaryCurve, plot_curves, trace_curves, write_curves
 from .maps import CollisionMap, collision_map
 from .outcomes import OUTCOMES, SEPARATION_SIGNS, Outcome
 from .problem import Collision, classify, collide, two_granule_scene
