@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-__all__ = ["scales", "scaled_parameters"]
+__all__ = ["scales", "scaled_parameters", "scaled_coulomb", "scaled_viscous"]
 
 
 def scales(m: float, k: float, n: float, v0: float) -> tuple[float, float]:
@@ -51,6 +51,20 @@ def scaled_parameters(model) -> dict:
         "reference": {"mass": m, "stiffness": k, "exponent": n, "v0": v0},
         "length_scale_A": A,
         "time_scale_B": B,
-        "eta_scaled": [float(e) * A / (m * v0 * v0) for e in model.eta],
-        "gamma_scaled": [float(g) * A / (m * v0) for g in model.gamma],
+        "eta_scaled": [scaled_coulomb(float(e), m, v0, A) for e in model.eta],
+        "gamma_scaled": [scaled_viscous(float(g), m, v0, A) for g in model.gamma],
     }
+
+
+# ----------------------------------------------------------------------------
+# Friction in scaled units, one parameter at a time (also the paper module's
+# Appendix A, granular_chain.paper.contact_and_scaling)
+# ----------------------------------------------------------------------------
+def scaled_coulomb(eta: float, m: float, v0: float, A: float) -> float:
+    """Kinetic friction *force* ``eta`` in scaled units: ``eta A / (m v0^2)``."""
+    return eta * A / (m * v0 * v0)
+
+
+def scaled_viscous(gamma: float, m: float, v0: float, A: float) -> float:
+    """Viscous coefficient ``gamma`` (force / speed) in scaled units: ``gamma A / (m v0)``."""
+    return gamma * A / (m * v0)

@@ -18,7 +18,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from granular_chain import paper as P
-from granular_chain.boundaries import find_boundaries, separation_limit, trace_curves
+from granular_chain.two_granules import find_boundaries, separation_limit, trace_curves
 from granular_chain.cli import main
 from granular_chain.two_granules import collide
 

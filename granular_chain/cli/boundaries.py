@@ -5,10 +5,10 @@ from __future__ import annotations
 
 
 def add_parser(subparsers) -> None:
-    from ..boundaries import add_boundaries_parser
+    from ..two_granules.boundaries import add_boundaries_parser
     add_boundaries_parser(subparsers)
 
 
 def run(args) -> int:
-    from ..boundaries import run_boundaries_command
+    from ..two_granules.boundaries import run_boundaries_command
     return run_boundaries_command(args)

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 
 def add_parser(subparsers) -> None:
-    from ..figures import add_figures_parser
+    from ..paper.figures import add_figures_parser
     add_figures_parser(subparsers)
 
 
 def run(args) -> int:
-    from ..figures import run_figures_command
+    from ..paper.figures import run_figures_command
     return run_figures_command(args)

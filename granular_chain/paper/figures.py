@@ -49,9 +49,9 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 
-from . import paper
-from .result import Status
-from .two_granules import Outcome, collide, collision_map
+from .. import paper
+from ..codes import Status
+from ..two_granules import OUTCOMES, Outcome, collide, collision_map
 
 __all__ = [
     "collision_values", "collision_grid", "hertz_maps",
@@ -62,9 +62,7 @@ __all__ = [
 
 SQRT2 = math.sqrt(2.0)
 
-#: Outcome codes of :func:`collision_values` (index into this tuple).
-OUTCOME_NAMES = tuple(o.name for o in Outcome)
-_BOTH = OUTCOME_NAMES.index("backscatter_and_propagation")
+_BOTH = OUTCOMES.index(Outcome.backscatter_and_propagation)
 
 
 # ----------------------------------------------------------------------------
@@ -88,8 +86,8 @@ def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> d
     dict of ndarray, shape (P,)
         ``v1``, ``v2`` (velocities at separation, units of v0), ``energy`` (E/E0),
         ``t_sep`` (separation time, units of B; inf if never), ``outcome``
-        (index into :data:`OUTCOME_NAMES`), ``t_stop1`` (first stop of granule 1,
-        NaN if it never stops).
+        (index into :data:`~granular_chain.two_granules.OUTCOMES`), ``t_stop1`` (first
+        stop of granule 1, NaN if it never stops).
 
     Raises
     ------
@@ -235,9 +233,8 @@ def iib_back_sliding_times(eta: np.ndarray, u0: np.ndarray, v20: np.ndarray):
     """Times after the stop of granule 1 in Sec. II B, from the state at that stop.
 
     With granule 1 sliding back (Eqs. ``motionx1``, ``motionx2``, ``t' = t - t0``)
-    the motion is linear:
-    ``u(t') = eta/2 + (u0 - eta/2) cos(sqrt2 t') - v20/sqrt2 sin(sqrt2 t')`` and
-    ``v1(t') = [v20 (1 - cos(sqrt2 t')) + eta t' - sqrt2 (u0 - eta/2) sin(sqrt2 t')]/2``.
+    the overlap and v1 are :func:`~granular_chain.paper.iib_back_sliding_overlap` and
+    :func:`~granular_chain.paper.iib_back_sliding_v1`; their roots are found with brentq.
 
     Parameters
     ----------
@@ -255,16 +252,14 @@ def iib_back_sliding_times(eta: np.ndarray, u0: np.ndarray, v20: np.ndarray):
     t1 = np.full(len(eta), np.nan)
     ts = np.full(len(eta), np.nan)
     for i, (e, u_0, w) in enumerate(zip(eta, u0, v20)):
-        A = u_0 - e / 2
-
         def u(tp):
-            return e / 2 + A * math.cos(SQRT2 * tp) - w / SQRT2 * math.sin(SQRT2 * tp)
+            return paper.iib_back_sliding_overlap(tp, e, u_0, w)
 
         def v1(tp):
-            return (w * (1 - math.cos(SQRT2 * tp)) + e * tp - SQRT2 * A * math.sin(SQRT2 * tp)) / 2
+            return paper.iib_back_sliding_v1(tp, e, u_0, w)
         # u falls from u0 to its minimum at theta = pi - psi; v1 < 0 just after 0 and
         # v1(theta = 2 pi) = eta pi > 0, so both roots are bracketed
-        psi = math.atan2(w / SQRT2, A)
+        psi = math.atan2(w / SQRT2, u_0 - e / 2)
         t1[i] = brentq(u, 0.0, (math.pi - psi) / SQRT2, xtol=1e-15, rtol=1e-15)
         grid = np.linspace(0.0, 2 * math.pi / SQRT2, 257)[1:]
         vals = np.array([v1(t) for t in grid])
@@ -537,7 +532,7 @@ def run_figures_command(args) -> int:
     return 0
 
 
-if __name__ == "__main__":  # pragma: no cover - convenience: python -m granular_chain.figures
-    ap = argparse.ArgumentParser(prog="python -m granular_chain.figures")
+if __name__ == "__main__":  # pragma: no cover - convenience: python -m granular_chain.paper.figures
+    ap = argparse.ArgumentParser(prog="python -m granular_chain.paper.figures")
     add_figures_parser(ap.add_subparsers(dest="command", required=True))
     sys.exit(run_figures_command(ap.parse_args()))

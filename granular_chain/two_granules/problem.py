@@ -1,0 +1,261 @@
+"""The paper's problem: two equal granules, the first striking the second.
+
+Rosas, Buceta and Lindenberg, "Dynamics of Two Granules": scaled units
+(Appendix A: m = 1, force coefficient 1, v0 = 1), granules just touching,
+granule 1 arriving at v = 1, granule 2 at rest; kinetic friction ``eta_i`` (a
+force) or hydrodynamic friction ``gamma_i`` on either. The collision ends at
+the first loss of contact. This module is a thin layer over the general engine:
+the problem is the engine's N = 2 scene (:func:`two_granule_scene`), run by
+:func:`~granular_chain.simulate.simulate` or, for the event stepper, by a
+cached :class:`~granular_chain.steppers.events.EventBatch` of it.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..codes import Status
+from ..model import build_model, friction_features
+from ..result import Result
+from ..scene import scene_from_dict
+from ..simulate import simulate
+from ..steppers.events import EventBatch
+from .outcomes import OUTCOMES, Outcome, outcome_code
+
+__all__ = ["Collision", "collide", "classify", "two_granule_scene", "energy_ratio"]
+
+# Speeds (scaled, v0 = 1) the event stepper cannot tell from rest: roundoff.
+_EVENT_REST_TOL = 1e-14
+
+
+@dataclass(frozen=True)
+class Collision:
+    """The end of a two-granule collision (scaled units).
+
+    Attributes
+    ----------
+    v1, v2 : float
+        Velocities at the first loss of contact (at the end of the run if the
+        granules never separate).
+    energy_ratio : float
+        E/E0: total (kinetic plus elastic) energy then over the initial 1/2.
+    t_separation : float
+        Time of the first loss of contact, ``math.inf`` if it never happens.
+    outcome : Outcome
+    message : str
+    result : Result
+        The engine's full result (trajectory, ledger, events).
+    """
+
+    v1: float
+    v2: float
+    energy_ratio: float
+    t_separation: float
+    outcome: Outcome
+    message: str
+    result: Result
+
+
+def _friction_pairs(eta, eta_static, gamma):
+    """(eta, eta_static or None, gamma) as pairs of floats, as the scene receives them."""
+    pair = lambda a: (float(a[0]), float(a[1]))  # noqa: E731
+    return pair(eta), (None if eta_static is None else pair(eta_static)), pair(gamma)
+
+
+def two_granule_scene(n: float = 2.0, eta=(0.0, 0.0), gamma=(0.0, 0.0), *,
+                      stepper: str = "verlet", dt: Optional[float] = None,
+                      eta_static=None, t_max: float = 1000.0, rtol: Optional[float] = None,
+                      atol: Optional[float] = None) -> dict:
+    """The scene mapping of the paper's problem (see :func:`collide`).
+
+    Only displacements enter the scaled problem; the radius 1 keeps the overlap
+    (which reaches 1 when granule 2 is held fast and granule 1 stops) below the
+    sum of the radii, where the engine would refuse the scene as unphysical.
+    """
+    # Stop at separation (the collision ends) or when both granules are at rest:
+    # with Coulomb friction a collision that sticks while compressed is a fixed
+    # point, and waiting for t_max would only cost time.
+    run = {"stepper": stepper, "t_end": t_max, "stop": ["separation", "rest"],
+           "stop_contact": 0}
+    if dt is not None:
+        run["dt"] = dt
+    if rtol is not None:
+        run["rtol"] = rtol
+    if atol is not None:
+        run["atol"] = atol
+    eta, eta_static, gamma = _friction_pairs(eta, eta_static, gamma)
+    friction = {"kinetic": list(eta), "viscous": list(gamma)}
+    if eta_static is not None:
+        friction["static"] = list(eta_static)
+    return {
+        "name": "two_granules",
+        "granules": {"count": 2, "mass": 1.0, "radius": 1.0, "gap": 0.0,
+                     "velocity": [1.0, 0.0], "friction": friction},
+        "contacts": {"exponent": float(n), "stiffness": 1.0},
+        "run": run,
+        "output": {"every": 1_000_000_000, "trajectory": False},
+    }
+
+
+def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verlet",
+            dt: Optional[float] = None, *, eta_static=None, t_max: float = 1000.0,
+            rtol: Optional[float] = None, atol: Optional[float] = None,
+            rest_tol: Optional[float] = None) -> Collision:
+    """Collide two granules as in the paper and classify the outcome.
+
+    Parameters
+    ----------
+    n : float
+        Potential exponent (2 linear, 5/2 Hertz).
+    eta : (float, float)
+        Kinetic friction forces (eta1, eta2) in scaled units.
+    gamma : (float, float)
+        Hydrodynamic friction coefficients (gamma1, gamma2) in scaled units.
+    stepper : {'verlet', 'event'}
+    dt : float, optional
+        Verlet step (default 1/200 of the contact period).
+    eta_static : (float, float), optional
+        Static thresholds (default equal to eta).
+    t_max : float
+        Give up waiting for separation after this time; the outcome is then
+        ``stuck`` (both at rest, compressed) or ``no_separation``.
+    rtol, atol : float, optional
+        Event-stepper tolerances (n != 2).
+    rest_tol : float, optional
+        Speed below which a granule counts as at rest when naming the outcome.
+        Relative to the faster granule: a granule is at rest when
+        ``|v| <= rest_tol * max(|v1|, |v2|)`` (a stuck granule is exactly at
+        rest). Default: 1e-14 for the event stepper at n = 2 (a frictionless
+        granule 1 ends at roundoff instead of 0), 100 rtol for it at other n,
+        dt^2 for Verlet, whose frictionless granule 1 ends at v1 = O(dt^2).
+        Relative, so that a collision ending with both speeds tiny (near
+        critical damping, ~1e-20) is still named by their signs.
+
+    Returns
+    -------
+    Collision
+    """
+    if stepper == "event":
+        fast = _collide_batched(n, eta, gamma, dt, eta_static, t_max, rtol, atol, rest_tol)
+        if fast is not None:
+            return fast
+    scene = scene_from_dict(
+        two_granule_scene(n, eta, gamma, stepper=stepper, dt=dt, eta_static=eta_static,
+                          t_max=t_max, rtol=rtol, atol=atol),
+        source="collide()")
+    result = simulate(scene, progress=False)
+    if rest_tol is None:
+        rest_tol = default_rest_tol(n, result.dt, scene.run.rtol)
+    return classify(result, rest_tol)
+
+
+def default_rest_tol(n, dt, rtol) -> float:
+    """collide()'s default rest_tol: dt^2 (Verlet), 1e-14 (event, n = 2), else 100 rtol."""
+    if dt is not None:
+        return dt ** 2
+    if float(n) == 2.0:
+        return _EVENT_REST_TOL
+    return max(_EVENT_REST_TOL, 100 * rtol)
+
+
+# Event-stepper batches of the two-granule scene, one per (n, options, friction
+# features); per thread, since a batch's arrays are rewritten by every run.
+_LOCAL = threading.local()
+_MAX_BATCHES = 64
+
+
+def event_batch(n, dt, t_max, rtol, atol, coulomb: bool, viscous: bool, friction):
+    """The :class:`EventBatch` of the paper's scene for these options and friction
+    features (validated, built and packed on first use), or None when the scene is
+    not in the kernel's units (then every run goes the ordinary way).
+
+    ``friction`` (eta, eta_static or None, gamma): a point with these features,
+    used to build the scene the first time (the full scene validation runs on it).
+    """
+    key = (float(n), dt, float(t_max), rtol, atol, bool(coulomb), bool(viscous))
+    cache = getattr(_LOCAL, "batches", None)
+    if cache is None:
+        cache = _LOCAL.batches = {}
+    if key in cache:
+        return cache[key]
+    eta, eta_static, gamma = friction
+    scene = scene_from_dict(
+        two_granule_scene(n, eta, gamma, stepper="event", dt=dt, eta_static=eta_static,
+                          t_max=t_max, rtol=rtol, atol=atol),
+        source="collide()")
+    model = build_model(scene)
+    if (model.features.coulomb, model.features.viscous) != (coulomb, viscous):
+        raise AssertionError("internal error: friction features of the template scene")
+    try:
+        batch = EventBatch(scene, model)
+    except ValueError:  # the stepper runs this scene in internal units of its own
+        batch = None
+    if len(cache) >= _MAX_BATCHES:
+        cache.clear()
+    cache[key] = batch
+    return batch
+
+
+def _finite_non_negative(x: float) -> bool:
+    return math.isfinite(x) and x >= 0.0
+
+
+def _collide_batched(n, eta, gamma, dt, eta_static, t_max, rtol, atol, rest_tol):
+    """collide() with the event stepper through a cached :class:`EventBatch`: the
+    scene is validated and packed once per (n, options, friction features), so a
+    call costs the kernel, the Result and the classification. Returns None when
+    the ordinary path must run: friction values the scene would refuse (it then
+    raises its SceneError), a hashing problem with the options, or a scene
+    outside the kernel's units."""
+    kinetic, static, viscous = _friction_pairs(eta, eta_static, gamma)
+    if not all(_finite_non_negative(x) for x in kinetic + viscous + (static or ())):
+        return None
+    if static is not None and (static[0] < kinetic[0] or static[1] < kinetic[1]):
+        return None
+    point = (np.array([kinetic]), np.array([static if static is not None else kinetic]),
+             np.array([viscous]))
+    has_coulomb, has_viscous = friction_features(*point)
+    try:
+        batch = event_batch(n, dt, t_max, rtol, atol, has_coulomb[0], has_viscous[0],
+                            (kinetic, static, viscous))
+    except TypeError:  # unhashable option values: let the ordinary path judge them
+        return None
+    if batch is None:
+        return None
+    result = batch.result(batch.run(*point))
+    if rest_tol is None:
+        rest_tol = default_rest_tol(n, None, batch.scene.run.rtol)
+    return classify(result, rest_tol)
+
+
+def classify(result: Result, rest_tol: float = 0.0) -> Collision:
+    """Turn the engine's result of the two-granule scene into a :class:`Collision`.
+
+    A granule is at rest when ``|v| <= rest_tol * max(|v1|, |v2|)``; the
+    velocities reported are the engine's, unrounded.
+    """
+    v1, v2 = (float(a) for a in result.v_final)
+    e = result.energy
+    ratio = energy_ratio(float(e.kinetic[-1]), float(e.potential[-1]), e.initial)
+    code = outcome_code(int(result.status), v1, v2, float(rest_tol))
+    if code < 0:
+        raise RuntimeError(f"the collision run failed: {result.message}")
+    outcome = OUTCOMES[code]
+    if result.status == Status.SEPARATED:
+        t_sep = float(result.t_final)
+        message = f"{outcome.name}: {outcome.value} (separated at t = {t_sep:.12g})"
+    else:
+        t_sep = math.inf
+        message = f"{outcome.name}: {outcome.value} ({result.message})"
+    return Collision(v1=v1, v2=v2, energy_ratio=ratio, t_separation=t_sep, outcome=outcome,
+                     message=message, result=result)
+
+
+def energy_ratio(kinetic, potential, initial):
+    """E/E0 at the end: (kinetic + elastic) over the initial energy (arrays or floats)."""
+    return (kinetic + potential) / initial
