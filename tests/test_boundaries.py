@@ -1,6 +1,6 @@
 """granular_chain.boundaries: outcome boundaries found from a parameter range alone.
 
-References: the exact thresholds of ``granular_chain/paper.py`` (mpmath, the values
+References: the exact thresholds of ``granular_chain/paper/`` (mpmath, the values
 ``docs/paper_check.md`` cites: rows 10, 21, 23, 36) and, for the n = 5/2
 never-separating friction, an independent scipy DOP853 integration of the
 relative coordinate. For n = 2 the event stepper's modes are exact, so the engine's

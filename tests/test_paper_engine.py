@@ -18,7 +18,7 @@ Bounds, and why
   a few ulp, derived in the test.
 * series: the measured error must scale with the stated order (ratio between
   decades) and approach the leading error term derived in
-  ``granular_chain/paper.py``; the remainder's order is asserted, not a tolerance.
+  ``granular_chain/paper/``; the remainder's order is asserted, not a tolerance.
 * thresholds: the outcome must change between ``x_c (1 - 1e-9)`` and
   ``x_c (1 + 1e-9)``, i.e. the engine puts the threshold where the exact
   value says, to nine digits; the velocity that vanishes there must vanish
@@ -350,7 +350,7 @@ ETAS_SMALL = (1e-3, 1e-4, 1e-5)
 
 def test_iib_small_eta_stop_time_and_initial_conditions():
     # Eq. (t0model2) and Eqs. (ic1)-(ic4) with a = pi eta/sqrt2: printed - engine must
-    # equal the leading error terms derived in paper.py (t0: +a^(3/2)/12; x1: -a^(3/2)/3;
+    # equal the leading error terms derived in granular_chain/paper/ (t0: +a^(3/2)/12; x1: -a^(3/2)/3;
     # x2: -7a^(3/2)/12; v2: -eta a^(1/2)), all O(eta^(3/2)), with a remainder whose
     # relative size falls like sqrt(eta) (t0, x2) or eta (x1, v2): per decade of eta the
     # deviation of the ratio from 1 must shrink by 10^(1/2) (10), within 20 %.

@@ -4,7 +4,7 @@ Source: A. Rosas, J. Buceta and K. Lindenberg, *Dynamics of Two Granules*
 (``shared/seed/two_granules_paper.tex``).  Every closed form and every numerical
 claim of the paper is a function here, written exactly **as printed**; where the
 printed statement is wrong, a ``*_corrected`` (or ``*_exact``) function sits next
-to it and its docstring states the erratum.  ``docs/paper_check_draft.md`` lists
+to it and its docstring states the erratum.  ``docs/paper_check.md`` lists
 the verdicts and the measured errors; ``tests/test_paper_formulas.py`` proves them.
 
 =============================  ===============================================
