@@ -1,6 +1,6 @@
 """The Verlet driver: compiled chunks of steps between output frames.
 
-Python runs only between compiled calls (:func:`.verlet.verlet_chunk`): it
+Python runs only between compiled calls (:mod:`.kernel`): it
 records frames (handing them to the writers attached to the run), checks the
 state for NaN/Inf, runaway energy and passing granules at the output cadence,
 prints thermo lines, updates the progress bar, honours stop requests (SIGINT,
@@ -19,16 +19,20 @@ from typing import Optional
 
 import numpy as np
 
-from .._compile import specialised
-from ..errors import SimulationError
-from ..forces import net_forces
-from ..frames import Frame, FrameLog
-from ..interrupts import CHUNK_SECONDS, stop_signals
-from ..laws.friction import drift_tables
-from ..model import Model
-from ..result import OVERLAP_ADVICE, EnergyLedger, Result, Status
-from ..units import scaled_parameters
-from . import verlet
+from ..._compile import specialised
+from ...codes import EVENT_KINDS, EventKind, Pause, Status
+from ...errors import SimulationError
+from ...forces import net_forces
+from ...frames import Frame, FrameLog
+from ...interrupts import CHUNK_SECONDS, stop_signals
+from ...laws.friction import drift_tables
+from ...model import Model
+from ...result import OVERLAP_ADVICE, EnergyLedger, Result
+from ...units import scaled_parameters
+from .event_log import EventLog, new_event_log
+from .kernel import chunk_kernel, synchronise
+from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
+                      Features, State, Timestep)
 
 __all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt"]
 
@@ -38,9 +42,6 @@ _DEFAULT_STEPS_PER_PERIOD = 200
 _DEFAULT_FRAMES = 1000
 _DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
 _UNSTABLE_BALANCE = 1.0
-_KERNEL_PY = getattr(verlet.verlet_chunk, "py_func", verlet.verlet_chunk)  # NUMBA_DISABLE_JIT
-_KERNEL_ARGS = _KERNEL_PY.__code__.co_varnames[:_KERNEL_PY.__code__.co_argcount]
-_ARG = {name: i for i, name in enumerate(_KERNEL_ARGS)}
 
 
 def default_dt(model: Model, t_end: float = math.inf) -> float:
@@ -178,8 +179,8 @@ class VerletRun:
         self.n_total = min(plan.steps, settings.max_steps)
         self.last_dt = 0.0 if self.limited else plan.last_dt
         stops = settings.stop_conditions
-        self.stop_mode = (verlet.STOP_ON_SEPARATION if "separation" in stops else 0) | (
-            verlet.STOP_ON_REST if "rest" in stops else 0)
+        self.stop_mode = (STOP_ON_SEPARATION if "separation" in stops else 0) | (
+            STOP_ON_REST if "rest" in stops else 0)
         self.stop_contact = settings.stop_contact if model.count > 1 else 0
         self.log_events = int(scene.output.events)
         self._init_state()
@@ -203,16 +204,21 @@ class VerletRun:
         self.vs = self.v.copy() if self.merged else self.v  # synchronised at t = 0
         self.sync = (0.0, 0, 0)
         feat = model.features
-        self.event_log = verlet.EventLog(N, self.merged, dt, self.plan.steps, self.t_end) \
+        self.event_log = EventLog(N, self.merged, dt, self.plan.steps, self.t_end) \
             if self.log_events else None
-        self.args = [feat.law, int(feat.coulomb), int(feat.viscous), int(feat.left_wall),
-                     int(feat.right_wall), self.stop_mode, _uniform_code(model, feat, E, P1, P2),
-                     self.log_events,
-                     self.u, self.v, self.f, active, model.d0, model.k, model.n, model.walls,
-                     model.mass, model.inv_mass, model.eta, model.eta_static, E, P1, P2, dt,
-                     0, 1, self.stop_contact, self.ledger, self.counts, *_overlap_caps(model),
-                     self.event_log.buffers if self.event_log else verlet.new_event_log(N, 0, 0)]
-        self.kernel = specialised(verlet.verlet_chunk, tuple(self.args), (0, 1, 2, 3, 4, 5, 6, 7))
+        self.features = Features(
+            law=int(feat.law), coulomb=int(feat.coulomb), viscous=int(feat.viscous),
+            left_wall=int(feat.left_wall), right_wall=int(feat.right_wall),
+            stop_mode=self.stop_mode, uniform=_uniform_code(model, feat, E, P1, P2),
+            log_events=self.log_events)
+        self.chain = Chain(model.d0, model.k, model.n, model.walls, model.mass, model.inv_mass,
+                           model.eta, model.eta_static, *_overlap_caps(model))
+        self.timestep = Timestep(dt, E, P1, P2)
+        self.state = State(self.u, self.v, self.f, active, self.ledger, self.counts)
+        self.opening = 1  # the next call opens the leapfrog (Coulomb runs): v is synchronised
+        self.buffers = self.event_log.buffers if self.event_log else new_event_log(N, 0, 0)
+        self.kernel = specialised(chunk_kernel(self.features), self._records(self._control(1)),
+                                  (0,))
         self.limits = _overlap_limits(model)
         ke0, pe0 = model.energies(self.u, self.v)
         self.e0 = ke0 + pe0
@@ -252,8 +258,8 @@ class VerletRun:
         finally:
             if self.bar is not None:
                 self.bar.close()
-        self.counts[verlet.EV_STOP] += self.sync[1]
-        self.counts[verlet.EV_SLIP] += self.sync[2]
+        self.counts[EventKind.STOP] += self.sync[1]
+        self.counts[EventKind.SLIP] += self.sync[2]
         result = _assemble(self.log, self.model, self.e0, status, message, self.steps,
                            time.perf_counter() - start, self.plan.dt, self.counts)
         if self.event_log is not None:
@@ -277,7 +283,7 @@ class VerletRun:
         # The kernel reads rest off a kick only after a call's first step: a Coulomb
         # run that stops at rest is tested here at the end of every call, wherever
         # calls end, so its stop step does not depend on them.
-        rest_watch = self.merged and bool(self.stop_mode & verlet.STOP_ON_REST)
+        rest_watch = self.merged and bool(self.stop_mode & STOP_ON_REST)
         while self.steps < self.n_total or (self.last_dt and not self.short_taken):
             if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
                 self._begin_short_step()
@@ -289,7 +295,7 @@ class VerletRun:
             code = self._advance(chunk, int(target) - self.steps)
             if rest_watch:
                 code = self._synchronise(code)
-            at_frame = self.steps >= self.next_frame or code != verlet.RAN_CHUNK or stop.requested
+            at_frame = self.steps >= self.next_frame or code != Pause.CHUNK_DONE or stop.requested
             at_thermo = self.steps >= self.next_thermo
             at_ck = self.steps >= self.next_ck
             if at_frame or at_thermo:
@@ -356,8 +362,8 @@ class VerletRun:
         state.update({name: np.float64(getattr(self, name)) if name in (
             "t_now", "dt_now", "next_thermo", "next_ck", "e0") else np.int64(getattr(self, name))
             for name in self._STATE_SCALARS})
-        state["active"] = self.args[_ARG["active"]].copy()
-        state["opening"] = np.int64(self.args[_ARG["opening"]])
+        state["active"] = self.state.active.copy()
+        state["opening"] = np.int64(self.opening)
         state["frames"] = np.int64(self.log.count)
         state["max_error"] = np.float64(self.log.max_balance_error)
         state["thermo_lines"] = np.int64(getattr(self.thermo, "lines", 0))
@@ -366,7 +372,7 @@ class VerletRun:
         if self.event_log is not None:  # the events logged so far (output.events)
             events = self.event_log.events
             state["events_t"] = np.array([e.t for e in events], dtype=np.float64)
-            state["events_kind"] = np.array([verlet.EVENT_KINDS.index(e.kind) for e in events],
+            state["events_kind"] = np.array([EVENT_KINDS.index(e.kind) for e in events],
                                             dtype=np.int8)
             state["events_index"] = np.array([e.index for e in events], dtype=np.int64)
         return state
@@ -374,8 +380,8 @@ class VerletRun:
     def _restore(self, state: dict) -> None:
         for name in self._STATE_ARRAYS:
             getattr(self, name)[:] = state[name]
-        self.args[_ARG["active"]][:] = state["active"]
-        self.args[_ARG["opening"]] = int(state["opening"])
+        self.state.active[:] = state["active"]
+        self.opening = int(state["opening"])
         for name in self._STATE_SCALARS:
             value = state[name]
             setattr(self, name, bool(value) if name == "short_taken" else (
@@ -386,9 +392,9 @@ class VerletRun:
                       initial=self.e0)
         self.log.resume(int(state["frames"]), float(state["max_error"]), first)
         if self.event_log is not None:
-            from ..result import Event
+            from ...result import Event
             self.event_log.events = [
-                Event(t, verlet.EVENT_KINDS[k], i) for t, k, i in zip(
+                Event(t, EVENT_KINDS[k], i) for t, k, i in zip(
                     state["events_t"].tolist(), state["events_kind"].tolist(),
                     state["events_index"].tolist())]
 
@@ -402,12 +408,18 @@ class VerletRun:
         self.log.sync()  # the frames so far are on disk before the state that follows them
         self.on_checkpoint(self.checkpoint_state())
 
+    def _control(self, n_steps: int) -> Call:
+        return Call(n_steps=int(n_steps), opening=self.opening, stop_contact=self.stop_contact)
+
+    def _records(self, control: Call) -> tuple:
+        """The kernel's arguments for one call."""
+        return self.features, self.chain, self.timestep, self.state, control, self.buffers
+
     def _advance(self, chunk, n_steps: int) -> int:
-        self.args[_ARG["n_steps"]] = n_steps
-        taken, code = self._call(chunk)
+        taken, code = self._call(chunk, self._control(n_steps))
         if taken == 0:  # a call always advances; guard against an endless loop
             raise RuntimeError("internal error: the Verlet kernel took no step")
-        self.args[_ARG["opening"]] = 0
+        self.opening = 0
         self.steps += taken
         self.t_now = self.t_end if self.short_taken else self.steps * self.plan.dt
         if self.bar is not None:
@@ -415,36 +427,39 @@ class VerletRun:
             self.bar.set_postfix_str(f"t = {self.t_now:.4g} / {self.t_end:g}", refresh=False)
         return code
 
-    def _call(self, chunk):
+    def _call(self, chunk, control: Call):
         """One kernel call (taken, code); with output.events, its events drained
         into the event log (calling again while the log fills)."""
         if self.event_log is None:
-            return chunk.call(self.kernel, self.args)
-        return self.event_log.call(lambda args: chunk.call(self.kernel, args), self.args,
-                                   self.steps, _ARG["n_steps"], _ARG["opening"])
+            return chunk.call(self.kernel, self._records(control))
+        return self.event_log.call(lambda c: chunk.call(self.kernel, self._records(c)), control,
+                                   self.steps)
 
     def _begin_short_step(self) -> None:
         if self.event_log is not None and self.merged:  # the half kick ending the last whole step
             self.event_log.half_kick(self.v, self.f, self.model, 0.5 * self.plan.dt, self.t_now)
             self.event_log.commit()
         self.short_taken, self.dt_now = True, self.last_dt
-        _begin_short_step(self.model, self.args, self.v, self.f, self.vs, self.ledger,
-                          self.counts, self.merged, self.last_dt)
+        if self.merged:  # complete the pending half kick; the new step opens the leapfrog again
+            _complete_half_kick(self.model, self.v, self.f, self.vs, self.ledger, self.counts,
+                                0.5 * self.timestep.dt)
+            self.opening = 1
+        self.timestep = Timestep(self.last_dt, *_drift_coefficients(self.model, self.last_dt))
         self.n_total += 1
 
     def _synchronise(self, code: int) -> int:
         """Synchronise a merged-kick run's velocities (into vs); rest read off them."""
         if self.merged:
             m = self.model
-            self.sync = verlet.synchronise(self.v, self.f, m.eta, m.eta_static, m.inv_mass,
+            self.sync = synchronise(self.v, self.f, m.eta, m.eta_static, m.inv_mass,
                                            0.5 * self.dt_now, self.vs)
             if self.event_log is not None:  # held: only the run's last one is counted
                 self.event_log.half_kick(self.v, self.f, m, 0.5 * self.dt_now, self.t_now)
-            if self.stop_mode & verlet.STOP_ON_REST and code == verlet.RAN_CHUNK \
+            if self.stop_mode & STOP_ON_REST and code == Pause.CHUNK_DONE \
                     and not self.vs.any():
                 # at rest here (the kernel reads rest off the kick after the time
                 # it holds, i.e. the next call's first step)
-                code = verlet.AT_REST
+                code = Status.AT_REST
         return code
 
     def _check(self, code: int):
@@ -458,13 +473,13 @@ class VerletRun:
                 f"{dt:g} is likely too large for the stiffest contact (period or collision time "
                 f"{T:.4g}); reduce run.dt")), None
         ended = None
-        if code == verlet.SEPARATED:
+        if code == Status.SEPARATED:
             self.t_now = _backtrack_to_separation(model, u, vs, self.f, self.ledger,
                                                   self.stop_contact, self.dt_now, self.t_now)
             ended = Status.SEPARATED, (
                 f"contact {self.stop_contact} opened at t = {self.t_now:.12g} (located inside "
                 f"the step by a second-order backtrack)")
-        elif code == verlet.AT_REST:
+        elif code == Status.AT_REST:
             ended = Status.AT_REST, (
                 f"every granule at rest (held by static friction) at t = {self.t_now:.12g}")
         problem = _overlap_problem(model, u, self.limits)
@@ -500,7 +515,7 @@ def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt,
         coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0,
         streamed_error=None if log.keep else log.max_balance_error)
     x, v = log.array("x"), log.array("v")
-    counts_d = dict(zip(verlet.EVENT_KINDS, (int(n) for n in counts)))
+    counts_d = dict(zip(EVENT_KINDS, (int(n) for n in counts)))
     info = {"features": model.features.describe(), "granules": model.count,
             "units": model.units}
     if not log.keep:
@@ -515,26 +530,16 @@ def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt,
         t_final=float(t[-1]), x_final=x[-1].copy(), v_final=v[-1].copy(),
         event_counts=counts_d, info=info)
 
-def _begin_short_step(model: Model, args: list, v, f, vs, ledger, counts, merged: bool,
-                      last_dt: float) -> None:
-    """Set the kernel's arguments for one step of ``last_dt`` (the run's last).
-
-    The drag tables are those of the shorter step. A Coulomb (merged-kick) run
-    first completes its pending half kick (v becomes the synchronised velocity,
-    its work and counts enter the ledger) and restarts the leapfrog with the
-    opening half kick of the new step, exactly as at t = 0.
-    """
-    if merged:
-        work, stops, slips = verlet.synchronise(v, f, model.eta, model.eta_static,
-                                                model.inv_mass, 0.5 * args[_KERNEL_ARGS.index("dt")], vs)
-        v[:] = vs
-        ledger[0] -= work
-        counts[verlet.EV_STOP] += stops
-        counts[verlet.EV_SLIP] += slips
-        args[_KERNEL_ARGS.index("opening")] = 1
-    for name, table in zip(("E", "P1", "P2"), _drift_coefficients(model, last_dt)):
-        args[_KERNEL_ARGS.index(name)] = table
-    args[_KERNEL_ARGS.index("dt")] = last_dt
+def _complete_half_kick(model: Model, v, f, vs, ledger, counts, h: float) -> None:
+    """Before the run's shorter last step, a Coulomb (merged-kick) run completes
+    its pending half kick h: v becomes the synchronised velocity and the kick's
+    work and counts enter the ledger, so the last step opens the leapfrog with
+    its own half kick, exactly as at t = 0."""
+    work, stops, slips = synchronise(v, f, model.eta, model.eta_static, model.inv_mass, h, vs)
+    v[:] = vs
+    ledger[0] -= work
+    counts[EventKind.STOP] += stops
+    counts[EventKind.SLIP] += slips
 
 
 class _Chunk:
@@ -551,12 +556,12 @@ class _Chunk:
     def __init__(self, count: int):
         self.steps = max(1, 2_000_000 // max(count, 1))
 
-    def call(self, kernel, args):
+    def call(self, kernel, records: tuple):
         """Call the kernel once and adapt :attr:`steps` to its measured rate
         (changing by at most 4x a call, so one slow call, such as the first,
         which may compile, does not swing it)."""
         begin = time.perf_counter()
-        taken, code = kernel(*args)
+        taken, code = kernel(*records)
         elapsed = time.perf_counter() - begin
         if taken > 0:
             target = taken * CHUNK_SECONDS / max(elapsed, 1e-6)
@@ -565,20 +570,20 @@ class _Chunk:
 
 
 def _uniform_code(model: Model, feat, E, P1, P2) -> int:
-    """Kernel feature code: verlet.UNIFORM when every granule has the same
+    """Kernel feature code: UNIFORM when every granule has the same
     parameters and every contact the same (d0, k, n), so the single sweep reads
-    scalars and streams only u, v, f; verlet.UNIT when moreover m = k = 1 and
+    scalars and streams only u, v, f; UNIT when moreover m = k = 1 and
     d0 = 0 (the scaled touching chain), compiled in as constants. Only the sweep
     (scenes without Coulomb friction) uses it; PER_GRANULE otherwise, so that
     Coulomb scenes do not compile a second, identical specialisation."""
     if feat.coulomb:
-        return verlet.PER_GRANULE
+        return PER_GRANULE
     arrays = (model.mass, model.inv_mass, E, P1, P2, model.d0, model.k, model.n)
     if not all(a.size == 0 or bool(np.all(a == a[0])) for a in arrays):
-        return verlet.PER_GRANULE
+        return PER_GRANULE
     unit = all(a.size == 0 or a[0] == value
                for a, value in ((model.mass, 1.0), (model.k, 1.0), (model.d0, 0.0)))
-    return verlet.UNIT if unit and model.count > 1 else verlet.UNIFORM
+    return UNIT if unit and model.count > 1 else UNIFORM
 
 
 def _overlap_limits(model: Model):
