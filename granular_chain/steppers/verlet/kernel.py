@@ -144,71 +144,6 @@ def store_granule(state, i, u, v, F, stop_mode):
 
 
 @numba.njit(inline="always", cache=True)
-def sweep_step(features, chain, timestep, state, values):
-    """One step of the sweep, in place: granule i+1's first half, contact i,
-    granule i's second half. Granule i+1's new u, v travel to the next iteration
-    in registers and the last granule is peeled off; contact events are read off
-    the overlap's sign before and after the step (no state array streamed).
-
-    Returns (w_viscous, closed, opened, moving, n_hard): the step's viscous work,
-    contacts that closed and opened, granules still moving, contact forces >= fcap.
-    """
-    law, viscous, uniform = features.law, features.viscous, features.uniform
-    u, v, f, d0, k, n = state.u, state.v, state.f, chain.d0, chain.k, chain.n
-    m, inv_m, E, P1, P2 = chain.mass, chain.inv_mass, timestep.E, timestep.P1, timestep.P2
-    m0, im0, E0, P10, P20, d00, k0, n0 = values
-    times = (timestep.dt, 1.0 / timestep.dt, 0.5 * timestep.dt)
-    last = np.uint64(max(u.size - 1, 0))
-    n_change = 0
-    n_net = 0
-    n_moving = 0
-    n_hard = 0
-    wv = 0.0
-    u_was = u[0]
-    ui, vi, dui, w = sweep_first_half(viscous, u_was, v[0], f[0], m[0], inv_m[0], E[0], P1[0],
-                                      P2[0], times)
-    wv += w
-    left = 0.0
-    if features.left_wall:
-        left = left_wall_force(law, chain.walls, ui)
-    for i in range(np.uint64(0), last):
-        j = i + ONE
-        u_next_was = u[j]
-        un, vn, dun, w = sweep_first_half(
-            viscous, u_next_was, v[j], f[j], param(uniform, m, m0, j),
-            param(uniform, inv_m, im0, j), param(uniform, E, E0, j), param(uniform, P1, P10, j),
-            param(uniform, P2, P20, j), times)
-        wv += w
-        d0i = param(uniform, d0, d00, i)
-        ci = contact_force(law, contact_overlap(d0i, ui, un), param(uniform, k, k0, i),
-                           param(uniform, n, n0, i))
-        n_hard += 1 if ci >= chain.fcap else 0
-        # counted as changes and net change: 2 integer operations a contact instead of 4
-        was = closed(d0i, u_was, u_next_was)
-        now = closed(d0i, ui, un)
-        n_change += now ^ was
-        n_net += now - was
-        F = left - ci
-        v1, w = sweep_second_half(viscous, vi, F, dui, param(uniform, m, m0, i),
-                                  param(uniform, inv_m, im0, i), param(uniform, P2, P20, i), times)
-        n_moving += store_granule(state, i, ui, v1, F, features.stop_mode)
-        wv += w
-        left = ci
-        u_was = u_next_was
-        ui = un
-        vi = vn
-        dui = dun
-    right = 0.0
-    if features.right_wall:
-        right = right_wall_force(law, chain.walls, ui)
-    F = left - right
-    v1, w = sweep_second_half(viscous, vi, F, dui, m[last], inv_m[last], P2[last], times)
-    n_moving += store_granule(state, last, ui, v1, F, features.stop_mode)
-    wv += w
-    return wv, (n_change + n_net) >> 1, (n_change - n_net) >> 1, n_moving, n_hard
-
-
-@numba.njit(inline="always", cache=True)
 def sweep_contact_closed(chain, u, j):
     """1 if contact j is closed, from the displacements (the sweep keeps no state array)."""
     if u.size < 2:
@@ -239,6 +174,13 @@ def overlap_reached(features, chain, u, n_hard):
 def sweep_chunk(features, chain, timestep, state, call, log):
     """Advance a scene without Coulomb friction by up to ``call.n_steps`` steps, in place.
 
+    Each step is one sweep: granule i+1's first half, contact i, granule i's
+    second half. Granule i+1's new u, v travel to the next iteration in
+    registers and the last granule is peeled off; contact events are read off
+    the overlap's sign before and after the step (no state array streamed). The
+    sweep stays in this function: moved into a helper, the compiler regroups
+    some products differently (last-bit changes).
+
     Parameters
     ----------
     features : Features
@@ -255,8 +197,14 @@ def sweep_chunk(features, chain, timestep, state, call, log):
         Steps taken; Pause.CHUNK_DONE, Pause.LOG_FULL, Status.SEPARATED,
         Status.AT_REST or Status.OVERLAP.
     """
-    u, counts = state.u, state.counts
-    values = uniform_values(features.uniform, chain, timestep)
+    law, viscous, uniform, stop_mode = features.law, features.viscous, features.uniform, \
+        features.stop_mode
+    u, v, f, counts = state.u, state.v, state.f, state.counts
+    d0, k, n, walls, m, inv_m = chain.d0, chain.k, chain.n, chain.walls, chain.mass, chain.inv_mass
+    dt, E, P1, P2 = timestep
+    times = (dt, 1.0 / dt, 0.5 * dt)
+    last = np.uint64(max(u.size - 1, 0))
+    m0, im0, E0, P10, P20, d00, k0, n0 = uniform_values(uniform, chain, timestep)
     if features.log_events:
         fill = log.fill[0]
         room = log.step.size - log_capacity(u.size, 0)
@@ -265,25 +213,71 @@ def sweep_chunk(features, chain, timestep, state, call, log):
         if features.log_events:
             if fill > room:
                 return step, LOG_FULL
-            walls_was = walls_closed(features, u, chain.walls)
-            fill = sweep_contact_log(chain.d0, u, seen, 0, log, fill, step)
-        if features.stop_mode & STOP_ON_SEPARATION:
+            walls_was = walls_closed(features, u, walls)
+            fill = sweep_contact_log(d0, u, seen, 0, log, fill, step)
+        wv = 0.0
+        n_moving = 0
+        n_hard = 0
+        if stop_mode & STOP_ON_SEPARATION:
             watched_was = sweep_contact_closed(chain, u, call.stop_contact)
-        wv, n_close, n_open, n_moving, n_hard = sweep_step(features, chain, timestep, state, values)
-        if features.viscous:
+        # contact events counted as changes and net change (2 integer operations a contact)
+        n_change = 0
+        n_net = 0
+        u_was = u[0]
+        ui, vi, dui, w = sweep_first_half(viscous, u_was, v[0], f[0], m[0], inv_m[0], E[0], P1[0],
+                                          P2[0], times)
+        wv += w
+        left = 0.0
+        if features.left_wall:
+            left = left_wall_force(law, walls, ui)
+        for i in range(np.uint64(0), last):
+            j = i + ONE
+            u_next_was = u[j]
+            un, vn, dun, w = sweep_first_half(
+                viscous, u_next_was, v[j], f[j], param(uniform, m, m0, j),
+                param(uniform, inv_m, im0, j), param(uniform, E, E0, j),
+                param(uniform, P1, P10, j), param(uniform, P2, P20, j), times)
+            wv += w
+            d0i = param(uniform, d0, d00, i)
+            ci = contact_force(law, contact_overlap(d0i, ui, un), param(uniform, k, k0, i),
+                               param(uniform, n, n0, i))
+            n_hard += 1 if ci >= chain.fcap else 0
+            was = closed(d0i, u_was, u_next_was)
+            now = closed(d0i, ui, un)
+            n_change += now ^ was
+            n_net += now - was
+            F = left - ci
+            v1, w = sweep_second_half(viscous, vi, F, dui, param(uniform, m, m0, i),
+                                      param(uniform, inv_m, im0, i), param(uniform, P2, P20, i),
+                                      times)
+            n_moving += store_granule(state, i, ui, v1, F, stop_mode)
+            wv += w
+            left = ci
+            u_was = u_next_was
+            ui = un
+            vi = vn
+            dui = dun
+        right = 0.0
+        if features.right_wall:
+            right = right_wall_force(law, walls, ui)
+        F = left - right
+        v1, w = sweep_second_half(viscous, vi, F, dui, m[last], inv_m[last], P2[last], times)
+        n_moving += store_granule(state, last, ui, v1, F, stop_mode)
+        wv += w
+        if viscous:
             state.ledger[1] -= wv
-        counts[CLOSE] += n_close
-        counts[OPEN] += n_open
+        counts[CLOSE] += (n_change + n_net) >> 1
+        counts[OPEN] += (n_change - n_net) >> 1
         if features.log_events:  # read after the sums are stored: their bits stay
-            fill = sweep_contact_log(chain.d0, u, seen, 1, log, fill, step + 1)
-            fill = log_walls(features, log, fill, step + 1, u, chain.walls, walls_was)
+            fill = sweep_contact_log(d0, u, seen, 1, log, fill, step + 1)
+            fill = log_walls(features, log, fill, step + 1, u, walls, walls_was)
             log.fill[0] = fill
         if overlap_reached(features, chain, u, n_hard):
             return step + 1, OVERLAP
-        if features.stop_mode & STOP_ON_SEPARATION:
+        if stop_mode & STOP_ON_SEPARATION:
             if watched_was == 1 and sweep_contact_closed(chain, u, call.stop_contact) == 0:
                 return step + 1, SEPARATED
-        if features.stop_mode & STOP_ON_REST:
+        if stop_mode & STOP_ON_REST:
             if n_moving == 0:
                 return step + 1, AT_REST
     return call.n_steps, CHUNK_DONE
