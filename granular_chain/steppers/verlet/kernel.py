@@ -361,47 +361,19 @@ def contact_pass(features, chain, state, block, buffer, log, fill, step, tally):
     return (n_close, n_open, n_hard), fill
 
 
-@numba.njit(inline="always", cache=True)
-def passes_step(features, chain, timestep, state, kick, buffer, seen, log, fill, step):
-    """One step of the blocked passes, in place; for each block [a, b):
-    pass 1 on granules a .. b-1, pass 2 on contacts max(a-1, 0) .. b-2 (walls
-    with the first and last block), pass 3 (net force) on granules a-1 .. b-2
-    (to N-1 on the last block). The block's last contact force is carried in
-    ``buffer`` to the next block.
-
-    Returns ((w_coulomb, w_viscous, stops, slips, closed, opened, moving,
-    n_hard), fill).
-    """
-    u, f, N = state.u, state.f, state.u.size
-    size = buffer.size - 2
-    kicks = (0.0, 0.0, 0, 0, 0)
-    contacts = (0, 0, 0)
-    for a in range(0, N, size):
-        b = min(a + size, N)
-        kicks = kick_drift_pass(features, chain, timestep, state, (a, b), kick, seen, kicks)
-        if features.log_events:
-            fill = log_kicks(log, fill, step, (a, b), seen)
-        if a == 0:
-            buffer[1] = left_wall_force(features.law, chain.walls, u[0]) \
-                if features.left_wall else 0.0
-        if b == N:
-            buffer[b - a + 1] = right_wall_force(features.law, chain.walls, u[N - 1]) \
-                if features.right_wall else 0.0
-        contacts, fill = contact_pass(features, chain, state, (a, b), buffer, log, fill, step,
-                                      contacts)
-        # Pass 3: net force (the kick that ends the step is the next step's pass 1).
-        ua = np.uint64(a)
-        for i in range(np.uint64(max(a - 1, 0)), np.uint64(N if b == N else b - 1)):
-            f[i] = buffer[i + ONE - ua] - buffer[i + TWO - ua]
-        buffer[0] = buffer[b - a]
-    wc, wv, n_stop, n_slip, n_moving = kicks
-    n_close, n_open, n_hard = contacts
-    return (wc, wv, n_stop, n_slip, n_close, n_open, n_moving, n_hard), fill
-
-
 @numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
 def passes_chunk(features, chain, timestep, state, call, log):
     """Advance a scene with Coulomb friction by up to ``call.n_steps`` steps, in place.
+
+    The chain is walked in blocks [a, b) of ``BLOCK`` granules (``BLOCK_LONG``
+    on long chains); for each block, pass 1 (:func:`kick_drift_pass`) on
+    granules a .. b-1, pass 2 (:func:`contact_pass`) on contacts max(a-1, 0) ..
+    b-2 (the walls with the first and the last block), pass 3 (net force) on
+    granules a-1 .. b-2 (to N-1 on the last block); the block's last contact
+    force is carried in ``buffer`` to the next block. The kick that ends a step
+    is the next step's pass 1. The passes are written here rather than in a
+    step helper: an inlined helper holding inlined helpers costs a second of
+    compilation.
 
     Parameters and returns as :func:`sweep_chunk`. ``call.opening`` 1: v holds
     synchronised velocities and the first kick is dt/2. With Status.AT_REST the
@@ -409,7 +381,7 @@ def passes_chunk(features, chain, timestep, state, call, log):
     found it moved nothing); the driver tests the synchronised velocities at a
     call's end, which the next call's first step would otherwise report.
     """
-    u, ledger, counts = state.u, state.ledger, state.counts
+    u, f, N, ledger, counts = state.u, state.f, state.u.size, state.ledger, state.counts
     size = BLOCK_LONG if u.size >= LONG_CHAIN else BLOCK
     buffer = np.zeros(size + 2)  # block-local contact forces: stays in L1
     seen = np.zeros(size if features.log_events else 1, dtype=np.int8)
@@ -426,9 +398,28 @@ def passes_chunk(features, chain, timestep, state, call, log):
         if features.stop_mode & STOP_ON_SEPARATION:
             watched_was = np.int64(state.active[call.stop_contact])
         kick = h if call.opening and step == 0 else timestep.dt
-        tally, fill = passes_step(features, chain, timestep, state, kick, buffer, seen, log,
-                                  fill, step + 1)
-        wc, wv, n_stop, n_slip, n_close, n_open, n_moving, n_hard = tally
+        kicks = (0.0, 0.0, 0, 0, 0)
+        contacts = (0, 0, 0)
+        for a in range(0, N, size):
+            b = min(a + size, N)
+            kicks = kick_drift_pass(features, chain, timestep, state, (a, b), kick, seen, kicks)
+            if features.log_events:
+                fill = log_kicks(log, fill, step + 1, (a, b), seen)
+            if a == 0:
+                buffer[1] = left_wall_force(features.law, chain.walls, u[0]) \
+                    if features.left_wall else 0.0
+            if b == N:
+                buffer[b - a + 1] = right_wall_force(features.law, chain.walls, u[N - 1]) \
+                    if features.right_wall else 0.0
+            contacts, fill = contact_pass(features, chain, state, (a, b), buffer, log, fill,
+                                          step + 1, contacts)
+            # Pass 3: net force (the kick that ends the step is the next step's pass 1).
+            ua = np.uint64(a)
+            for i in range(np.uint64(max(a - 1, 0)), np.uint64(N if b == N else b - 1)):
+                f[i] = buffer[i + ONE - ua] - buffer[i + TWO - ua]
+            buffer[0] = buffer[b - a]
+        wc, wv, n_stop, n_slip, n_moving = kicks
+        n_close, n_open, n_hard = contacts
         ledger[0] -= wc
         counts[STOP] += n_stop
         counts[SLIP] += n_slip
