@@ -72,10 +72,12 @@ def _drift_coefficients(model: Model, dt: float):
     return E, P1, P2
 
 
-def _net_forces(model: Model, u, c, f):
+def _net_forces(model: Model, u, c, f, d0=None):
+    """Contact forces c (N-1,) and net forces f (N,) at displacements u; ``d0``
+    replaces the model's initial overlaps when given."""
     feat = model.features
-    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, model.d0, model.k,
-            model.n, model.walls, c, f)
+    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u,
+            model.d0 if d0 is None else d0, model.k, model.n, model.walls, c, f)
     specialised(net_forces, args, (0, 1, 2))(*args)
 
 
@@ -597,10 +599,14 @@ def _overlap_caps(model: Model):
     and the smallest contact force at which a contact reaches its limit."""
     lim, left, right = _overlap_limits(model)
     olim = np.concatenate(([left], lim, [right]))
-    with np.errstate(over="ignore"):
-        f_at = model.k * lim ** (model.n - 1.0)
-    fcap = float(np.min(f_at)) if f_at.size else math.inf
-    return olim, fcap
+    if not lim.size:
+        return olim, math.inf
+    # The contact law's force at each limit, from the law the kernels use
+    # (laws.contact through net_forces with d0 = lim and u = 0, so delta = lim
+    # exactly), not from a second formula.
+    at_limit = np.zeros(lim.size)
+    _net_forces(model, np.zeros(model.count), at_limit, np.zeros(model.count), d0=lim)
+    return olim, float(np.min(at_limit))
 
 
 def _overlap_problem(model: Model, u, limits) -> str:
