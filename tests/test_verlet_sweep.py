@@ -4,7 +4,7 @@ its paths: per-granule parameters and the ``uniform`` specialisation, both walls
 drag (exponential Verlet), contact events, and N = 1.
 
 The reference is a direct transcription of the scheme in
-granular_chain/steppers/verlet.py's docstring (three whole-chain passes, no
+granular_chain/steppers/verlet/kernel.py (its docstring) (three whole-chain passes, no
 blocking, no fused sweep, the Hertz force as delta ** 1.5); it agrees with the
 kernel to roundoff, and a contact counts as closed when its overlap is positive.
 """
