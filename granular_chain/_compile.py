@@ -1,8 +1,9 @@
 """Calling compiled kernels specialised on compile-time feature codes.
 
 Kernels take their feature codes (contact law, friction present, walls, stop
-mode) as integer arguments and pass them through ``numba.literally``, so numba
-compiles one specialisation per feature set, prunes the absent features'
+mode) as integer arguments passed through ``numba.literally``, or as one named
+tuple of integers compiled with each field a literal, so numba compiles one
+specialisation per feature set, prunes the absent features'
 branches and caches each specialisation on disk (``cache=True``); closures
 over law functions, the other common way to specialise, are not cacheable.
 
@@ -32,7 +33,8 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
         A representative argument tuple (only its types and the literal values
         matter; the kernel is not run).
     literal : tuple of int
-        Positions of the integer feature codes.
+        Positions of the feature codes: integers, or named tuples of integers
+        (each field then a compile-time constant, read as ``features.law``).
     """
     # A cheap key (numba.typeof on every argument costs more than a small run):
     # the literal values, and each argument's type, dtype, rank, layout and
@@ -42,12 +44,19 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     key = (dispatcher,) + tuple(a if i in literal else _type_key(a) for i, a in enumerate(args))
     entry = _ENTRIES.get(key)
     if entry is None:
-        sig = tuple(types.literal(a) if i in literal else numba.typeof(a)
+        sig = tuple(_literal_type(a) if i in literal else numba.typeof(a)
                     for i, a in enumerate(args))
         dispatcher.compile(sig)  # compile, or load from the on-disk cache
         entry = dispatcher.overloads[sig].entry_point
         _ENTRIES[key] = entry
     return entry
+
+
+def _literal_type(a):
+    """The numba type of a feature code: a literal integer, or a named tuple of them."""
+    if isinstance(a, tuple):
+        return types.NamedTuple([types.literal(int(x)) for x in a], type(a))
+    return types.literal(a)
 
 
 def _type_key(a):

@@ -19,13 +19,44 @@ from .laws.contact import contact_energy, contact_force
 
 
 @numba.njit(inline="always", cache=True)
+def contact_overlap(d0, u_left, u_right):
+    """delta = d0 + u_i - u_(i+1) of a contact of initial overlap d0 between
+    granules displaced by u_left and u_right (evaluated left to right)."""
+    return d0 + u_left - u_right
+
+
+@numba.njit(inline="always", cache=True)
 def contact_forces(law, u, d0, k, n, c):
     """Fill ``c`` (N-1,) with the compressive force of every contact (>= 0).
 
     A loop with no loop-carried value: it vectorises.
     """
     for i in range(u.size - 1):
-        c[i] = contact_force(law, d0[i] + u[i] - u[i + 1], k[i], n[i])
+        c[i] = contact_force(law, contact_overlap(d0[i], u[i], u[i + 1]), k[i], n[i])
+
+
+@numba.njit(inline="always", cache=True)
+def left_wall_overlap(walls, u_first):
+    """delta_L = d0_L - u_0 of the left wall's contact (``walls`` as in :func:`spring_forces`)."""
+    return walls[0] - u_first
+
+
+@numba.njit(inline="always", cache=True)
+def right_wall_overlap(walls, u_last):
+    """delta_R = d0_R + u_(N-1) of the right wall's contact."""
+    return walls[3] + u_last
+
+
+@numba.njit(inline="always", cache=True)
+def left_wall_force(law, walls, u_first):
+    """Force of the left wall on granule 0 (to the right, >= 0), granule 0 displaced by u_first."""
+    return contact_force(law, left_wall_overlap(walls, u_first), walls[1], walls[2])
+
+
+@numba.njit(inline="always", cache=True)
+def right_wall_force(law, walls, u_last):
+    """Force of the right wall on granule N-1 (to the left, >= 0), displaced by u_last."""
+    return contact_force(law, right_wall_overlap(walls, u_last), walls[4], walls[5])
 
 
 @numba.njit(inline="always", cache=True)
@@ -34,9 +65,9 @@ def wall_forces(law, left_wall, right_wall, u, walls):
     fl = 0.0
     fr = 0.0
     if left_wall:
-        fl = contact_force(law, walls[0] - u[0], walls[1], walls[2])
+        fl = left_wall_force(law, walls, u[0])
     if right_wall:
-        fr = contact_force(law, walls[3] + u[u.size - 1], walls[4], walls[5])
+        fr = right_wall_force(law, walls, u[u.size - 1])
     return fl, fr
 
 
@@ -77,11 +108,11 @@ def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
     N = u.size
     e = 0.0
     for i in range(N - 1):
-        e += contact_energy(law, d0[i] + u[i] - u[i + 1], k[i], n[i])
+        e += contact_energy(law, contact_overlap(d0[i], u[i], u[i + 1]), k[i], n[i])
     if left_wall:
-        e += contact_energy(law, walls[0] - u[0], walls[1], walls[2])
+        e += contact_energy(law, left_wall_overlap(walls, u[0]), walls[1], walls[2])
     if right_wall:
-        e += contact_energy(law, walls[3] + u[N - 1], walls[4], walls[5])
+        e += contact_energy(law, right_wall_overlap(walls, u[N - 1]), walls[4], walls[5])
     return e
 
 

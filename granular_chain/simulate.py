@@ -1,6 +1,6 @@
 """simulate(scene) -> Result: checks a scene, runs it with its stepper, attaches writers.
 
-The steppers' drivers live in :mod:`.steppers.verlet_run` and
+The steppers' drivers live in :mod:`.steppers.verlet` and
 :mod:`.steppers.events`; this module picks one, runs the checks every run makes
 before it computes anything (:func:`preflight`) and hands the frames to the
 writers attached to the run as they come.
@@ -19,7 +19,7 @@ from .ledger import ledger_verdict
 from .model import Model
 from .result import Result
 from .scene import Scene
-from .steppers.verlet_run import (  # noqa: F401  (re-exported: benchmarks and tests)
+from .steppers.verlet.driver import (  # noqa: F401  (re-exported: benchmarks and tests)
     StepPlan,
     VerletRun,
     _backtrack_to_separation,
@@ -189,5 +189,5 @@ def next_neighbour_overlap(t, x, radius) -> str:
 
 def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool],
                      log: Optional[FrameLog] = None, thermo=None) -> Result:
-    """Run a scene with the Verlet stepper (see :class:`~.steppers.verlet_run.VerletRun`)."""
+    """Run a scene with the Verlet stepper (see :class:`~.steppers.verlet.VerletRun`)."""
     return VerletRun(scene, model, progress, log=log, thermo=thermo).run()

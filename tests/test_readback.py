@@ -289,7 +289,7 @@ def test_compile_notice_only_when_kernels_are_not_cached(tmp_path, monkeypatch):
     with warmup.compile_notice("verlet", stream=out):
         pass
     assert out.getvalue() == f"granular-chain: {warmup.NOTICE}\n"
-    (tmp_path / "verlet.verlet_chunk-246.py311.nbi").write_bytes(b"")
+    (tmp_path / "kernel.passes_chunk-246.py311.nbi").write_bytes(b"")
     assert warmup.kernels_cached("verlet") and not warmup.kernels_cached("event")
     out = io.StringIO()
     with warmup.compile_notice("verlet", stream=out):

@@ -124,6 +124,7 @@ def test_rest_stop_does_not_depend_on_where_compiled_calls_end(monkeypatch):
     import granular_chain as gc
     from granular_chain.model import build_model
     from granular_chain.steppers import verlet_run
+    from granular_chain.steppers.verlet import driver as verlet_driver
     from granular_chain.writers.thermo import ThermoLog
 
     base = gc.simulate(rest_scene(), progress=False)
@@ -137,7 +138,7 @@ def test_rest_stop_does_not_depend_on_where_compiled_calls_end(monkeypatch):
     scene.output.checkpoint_every = rest
     runs.append(verlet_run.VerletRun(scene, build_model(scene), False, checkpoint=lambda s: None,
                                      checkpoint_every=rest).run())
-    monkeypatch.setattr(verlet_run, "CHUNK_SECONDS", 1e-5)  # calls of a few steps
+    monkeypatch.setattr(verlet_driver, "CHUNK_SECONDS", 1e-5)  # calls of a few steps
     runs.append(gc.simulate(rest_scene(), progress=False))
     for r in runs:
         assert r.status == gc.Status.AT_REST and r.steps == rest

@@ -122,7 +122,7 @@ def test_a_full_log_drains_and_resumes_bit_identically(monkeypatch):
         calls.append(size)
         return tuple(b[:size].copy() for b in bufs[:3]) + (bufs[3],)
 
-    monkeypatch.setattr(verlet, "new_event_log", small)
+    monkeypatch.setattr(verlet.event_log, "new_event_log", small)
     full = []
     real_call = verlet.EventLog.call
 

@@ -1,5 +1,5 @@
 """Merged kicks: Coulomb scenes step the leapfrog form (one kick of dt per step
-instead of two of dt/2; granular_chain/steppers/verlet.py).
+instead of two of dt/2; granular_chain/steppers/verlet/kernel.py).
 
 A kick is the exact flow of m dv/dt = F - eta sign(v) (with stick) under a frozen
 force, so two half kicks and one whole kick are the same map up to roundoff. The

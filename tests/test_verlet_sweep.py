@@ -4,7 +4,7 @@ its paths: per-granule parameters and the ``uniform`` specialisation, both walls
 drag (exponential Verlet), contact events, and N = 1.
 
 The reference is a direct transcription of the scheme in
-granular_chain/steppers/verlet.py's docstring (three whole-chain passes, no
+granular_chain/steppers/verlet/kernel.py (its docstring) (three whole-chain passes, no
 blocking, no fused sweep, the Hertz force as delta ** 1.5); it agrees with the
 kernel to roundoff, and a contact counts as closed when its overlap is positive.
 """
@@ -159,7 +159,7 @@ def test_uniform_code_is_set_only_where_the_sweep_can_use_it():
 def test_unit_constants_are_bit_identical_to_uniform_scalars(monkeypatch, viscous, walls):
     # UNIT compiles m = k = 1, d0 = 0 in; x * 1 and x + 0 are exact, so the run
     # must equal the UNIFORM kernel (the same values read as scalars) bit for bit.
-    sim = importlib.import_module("granular_chain.steppers.verlet_run")  # the Verlet driver
+    sim = importlib.import_module("granular_chain.steppers.verlet.driver")  # the Verlet driver
     from granular_chain.steppers.verlet import UNIFORM, UNIT
 
     scene = _chain(300, True, viscous, walls, v=0.2 if walls else 1.0)

@@ -1,0 +1,27 @@
+"""The velocity-Verlet stepper with exact friction kicks.
+
+- :mod:`.records`: the named tuples the compiled kernels take (features, chain,
+  timestep, state, call, event buffers);
+- :mod:`.kernel`: the compiled step loops (the sweep; the blocked passes);
+- :mod:`.event_log`: the event log (``output.events``);
+- :mod:`.driver`: :class:`VerletRun`, the step plan, chunking, cadences, checkpoints.
+"""
+
+from ...codes import EVENT_KINDS, EventKind, Pause
+from .driver import StepPlan, VerletRun, check_dt, default_dt, step_plan
+from .event_log import EventLog, log_capacity, new_event_log
+from .kernel import BLOCK, BLOCK_LONG, LONG_CHAIN, chunk_kernel, passes_chunk, sweep_chunk, synchronise
+from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
+                      EventBuffers, Features, State, Timestep)
+
+# Event-kind indices under the names the event stepper imports from here
+# (granular_chain.codes.EventKind is their one definition).
+EV_CLOSE, EV_OPEN, EV_STOP, EV_SLIP = (int(k) for k in EventKind)
+LOG_FULL = Pause.LOG_FULL  # what a kernel call returns when the event log is full
+
+__all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt", "EventLog",
+           "new_event_log", "log_capacity", "sweep_chunk", "passes_chunk", "chunk_kernel",
+           "synchronise", "Features", "Chain", "Timestep", "State", "Call", "EventBuffers",
+           "PER_GRANULE", "UNIFORM", "UNIT", "STOP_ON_SEPARATION", "STOP_ON_REST", "BLOCK",
+           "BLOCK_LONG", "LONG_CHAIN", "EVENT_KINDS", "EV_CLOSE", "EV_OPEN", "EV_STOP", "EV_SLIP",
+           "LOG_FULL"]

@@ -1,0 +1,671 @@
+"""The Verlet driver: compiled chunks of steps between output frames.
+
+Python runs only between compiled calls (:mod:`.kernel`): it
+records frames (handing them to the writers attached to the run), checks the
+state for NaN/Inf, runaway energy and passing granules at the output cadence,
+prints thermo lines, updates the progress bar, honours stop requests (SIGINT,
+SIGTERM) and decides when to stop. A call runs to the next frame or for about
+:data:`~granular_chain.interrupts.CHUNK_SECONDS`, whichever comes first; where
+calls end never changes the trajectory.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..._compile import specialised
+from ...codes import EVENT_KINDS, EventKind, Pause, Status
+from ...errors import SimulationError
+from ...forces import net_forces
+from ...frames import Frame, FrameLog
+from ...interrupts import CHUNK_SECONDS, stop_signals
+from ...laws.friction import drift_tables
+from ...model import Model
+from ...result import OVERLAP_ADVICE, EnergyLedger, Result
+from ...units import scaled_parameters
+from .event_log import EventLog, new_event_log
+from .kernel import chunk_kernel, synchronise
+from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
+                      Features, State, Timestep)
+
+__all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt"]
+
+# Velocity Verlet on a linear contact of period T is unstable for dt > T/pi.
+_STABILITY_FRACTION = 1.0 / math.pi
+_DEFAULT_STEPS_PER_PERIOD = 200
+_DEFAULT_FRAMES = 1000
+_DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
+_UNSTABLE_BALANCE = 1.0
+
+
+def default_dt(model: Model, t_end: float = math.inf) -> float:
+    """1/200 of the shortest contact period (or collision time), at most t_end/100,
+    shortened so that a whole number of steps ends exactly at a finite t_end."""
+    T = model.shortest_period()
+    dt = T / _DEFAULT_STEPS_PER_PERIOD if math.isfinite(T) else 1e-2
+    dt = min(dt, t_end / 100)
+    if math.isfinite(t_end):
+        dt = t_end / math.ceil(t_end / dt * (1 - 1e-12))
+    return dt
+
+
+def check_dt(model: Model, dt: float) -> None:
+    """Refuse a Verlet step the stiffest contact cannot take (SimulationError names run.dt)."""
+    T = model.shortest_period()
+    if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+        raise SimulationError(
+            f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
+            f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
+            f"use dt <= {T / 50:.3g} for accuracy")
+
+
+def _drift_coefficients(model: Model, dt: float):
+    cv = model.gamma * model.inv_mass
+    E, P1, P2 = np.empty_like(cv), np.empty_like(cv), np.empty_like(cv)
+    drift_tables(cv, dt, E, P1, P2)
+    return E, P1, P2
+
+
+def _net_forces(model: Model, u, c, f, d0=None):
+    """Contact forces c (N-1,) and net forces f (N,) at displacements u; ``d0``
+    replaces the model's initial overlaps when given."""
+    feat = model.features
+    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u,
+            model.d0 if d0 is None else d0, model.k, model.n, model.walls, c, f)
+    specialised(net_forces, args, (0, 1, 2))(*args)
+
+
+@dataclass(frozen=True)
+class StepPlan:
+    """The Verlet run's steps: ``steps`` of ``dt``, then one of ``last_dt`` (0: none)
+    so that the run ends exactly at t_end; a frame every ``every`` steps.
+
+    Attributes
+    ----------
+    dt : float
+        Step (the scene's time unit); shortened, when ``output.dt`` is given, to
+        the largest step that divides it, so frames fall on multiples of it.
+    steps : int
+        Whole steps of ``dt`` (``steps * dt`` <= t_end).
+    last_dt : float
+        A final shorter step ending at t_end, or 0 when ``steps * dt`` is t_end
+        to within 1e-9 dt.
+    every : int
+        Steps between frames.
+    note : str
+        What was shortened, for the run's warnings ('' when nothing was).
+    """
+
+    dt: float
+    steps: int
+    last_dt: float
+    every: int
+    note: str
+
+
+def step_plan(model: Model, scene: Scene) -> StepPlan:
+    """Plan the Verlet steps of a scene (see :class:`StepPlan`)."""
+    settings, out = scene.run, scene.output
+    t_end = settings.t_end
+    dt = settings.dt if settings.dt is not None else default_dt(model, t_end)
+    note = ""
+    if out.dt is not None:
+        per_frame = out.dt / dt
+        m = round(per_frame)
+        if m < 1 or abs(m - per_frame) > 1e-9 * per_frame:
+            m = math.ceil(per_frame)
+            shorter = out.dt / m
+            if settings.dt is not None:
+                note = (f"run.dt shortened from {dt:.6g} to {shorter:.6g} so that frames fall "
+                        f"on multiples of output.dt = {out.dt:g}")
+            dt = shorter
+        every = m
+    whole = round(t_end / dt)
+    if whole >= 1 and abs(whole * dt - t_end) <= 1e-9 * dt:
+        steps, last_dt = whole, 0.0
+    else:
+        steps = int(math.floor(t_end / dt))
+        last_dt = t_end - steps * dt
+    if out.every is not None:
+        every = out.every
+    elif out.dt is None:
+        # About 1000 frames, fewer for long chains.
+        frames_wanted = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // max(model.count, 1)))
+        every = max(1, steps // frames_wanted)
+    return StepPlan(dt=dt, steps=steps, last_dt=last_dt, every=every, note=note)
+
+
+class VerletRun:
+    """One velocity-Verlet run of a model: built once, then :meth:`run`.
+
+    Parameters
+    ----------
+    scene : Scene
+        Its ``run`` (t_end, stop conditions, max_steps) and ``output`` (cadence).
+    model : Model
+        The packed chain (:func:`granular_chain.model.build_model`).
+    progress : bool, optional
+        Progress bar (default: on a terminal, for runs longer than ~2 s).
+    log : FrameLog, optional
+        Where the output frames go; default: all kept in memory, no writers.
+    thermo : writer with ``every`` (steps) and ``write_frame(frame)``, optional
+        Called on its own cadence (LAMMPS' ``thermo N``), besides the frames.
+    checkpoint : callable(dict), optional
+        Given the run's state (:meth:`checkpoint_state`) every ``checkpoint_every``
+        steps, once the writers have every frame so far on disk, and when the run
+        is interrupted; :meth:`run` with that state continues the run bit for bit.
+    checkpoint_every : int, optional
+        Steps between checkpoints (None: only at an interruption).
+    """
+
+    def __init__(self, scene, model: Model, progress: Optional[bool] = None,
+                 log: Optional[FrameLog] = None, thermo=None, checkpoint=None,
+                 checkpoint_every: Optional[int] = None):
+        settings = scene.run
+        self.model, self.thermo = model, thermo
+        self.on_checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
+        self.next_ck = None
+        self.T = model.shortest_period()  # period or collision time of the stiffest contact
+        self.log = log if log is not None else FrameLog()
+        self.plan = plan = step_plan(model, scene)
+        if settings.check_dt:
+            check_dt(model, plan.dt)
+        self.t_end, self.max_steps = settings.t_end, settings.max_steps
+        self.limited = plan.steps > settings.max_steps
+        self.n_total = min(plan.steps, settings.max_steps)
+        self.last_dt = 0.0 if self.limited else plan.last_dt
+        stops = settings.stop_conditions
+        self.stop_mode = (STOP_ON_SEPARATION if "separation" in stops else 0) | (
+            STOP_ON_REST if "rest" in stops else 0)
+        self.stop_contact = settings.stop_contact if model.count > 1 else 0
+        self.log_events = int(scene.output.events)
+        self._init_state()
+        self.bar = _progress_bar(progress, self.n_total)
+
+    def _init_state(self) -> None:
+        model, N, dt = self.model, self.model.count, self.plan.dt
+        self.u, self.v, self.f = np.zeros(N), model.v0.copy(), np.zeros(N)
+        c = np.zeros(max(N - 1, 1))
+        _net_forces(model, self.u, c, self.f)
+        active = (c[: max(N - 1, 0)] > 0).astype(np.uint8)
+        if active.size == 0:
+            active = np.zeros(1, dtype=np.uint8)
+        E, P1, P2 = _drift_coefficients(model, dt)
+        self.ledger, self.counts = np.zeros(2), np.zeros(4, dtype=np.int64)
+        # With Coulomb friction the kernel merges kicks (leapfrog form) and v holds
+        # half-step velocities between calls; vs gets the synchronised ones for the
+        # frames, and sync the half kick's work and counts that the ledger and the
+        # counts lack at the frame's time.
+        self.merged = bool(model.features.coulomb)
+        self.vs = self.v.copy() if self.merged else self.v  # synchronised at t = 0
+        self.sync = (0.0, 0, 0)
+        feat = model.features
+        self.event_log = EventLog(N, self.merged, dt, self.plan.steps, self.t_end) \
+            if self.log_events else None
+        self.features = Features(
+            law=int(feat.law), coulomb=int(feat.coulomb), viscous=int(feat.viscous),
+            left_wall=int(feat.left_wall), right_wall=int(feat.right_wall),
+            stop_mode=self.stop_mode, uniform=_uniform_code(model, feat, E, P1, P2),
+            log_events=self.log_events)
+        self.chain = Chain(model.d0, model.k, model.n, model.walls, model.mass, model.inv_mass,
+                           model.eta, model.eta_static, *_overlap_caps(model))
+        self.timestep = Timestep(dt, E, P1, P2)
+        self.state = State(self.u, self.v, self.f, active, self.ledger, self.counts)
+        self.opening = 1  # the next call opens the leapfrog (Coulomb runs): v is synchronised
+        self.buffers = self.event_log.buffers if self.event_log else new_event_log(N, 0, 0)
+        self.kernel = specialised(chunk_kernel(self.features), self._records(self._control(1)),
+                                  (0,))
+        self.limits = _overlap_limits(model)
+        ke0, pe0 = model.energies(self.u, self.v)
+        self.e0 = ke0 + pe0
+        self.steps, self.t_now, self.dt_now = 0, 0.0, dt
+        self.short_taken = False
+
+    def frame(self, energies=None) -> Frame:
+        """The synchronised state at the current time, with its ledger (``energies``:
+        the kinetic and elastic energy when already known)."""
+        ke, pe = energies if energies is not None else self.model.energies(self.u, self.vs)
+        return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
+                     self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
+
+    def run(self, resume: Optional[dict] = None) -> Result:
+        """Step to t_end or a stop condition; the Result of the run.
+
+        ``resume``: a state from :meth:`checkpoint_state` of the same scene; the
+        run goes on from it as if it had never stopped (its writers must have
+        been reopened at the checkpoint's frame and thermo line).
+        """
+        if resume is None:
+            first = self.frame()
+            self.log.record(first)
+            if self.thermo is not None:
+                self.thermo.write_frame(first)
+            self.next_frame = min(self.plan.every, self.n_total)
+            self.next_thermo = self.thermo.every if self.thermo is not None else math.inf
+        else:
+            # the frames before the checkpoint are in the writers' files, not here: the
+            # Result keeps the first and the latest, and the ledger error over them all
+            self.log.keep = False
+            self._restore(resume)
+        start = time.perf_counter()  # stepping time: from the first frame on
+        try:
+            with stop_signals() as stop:
+                status, message = self._loop(stop)
+        finally:
+            if self.bar is not None:
+                self.bar.close()
+        self.counts[EventKind.STOP] += self.sync[1]
+        self.counts[EventKind.SLIP] += self.sync[2]
+        result = _assemble(self.log, self.model, self.e0, status, message, self.steps,
+                           time.perf_counter() - start, self.plan.dt, self.counts)
+        if self.event_log is not None:
+            result.events = self.event_log.commit()  # with the last half kick's
+        if self.plan.note:
+            result.info.setdefault("warnings", []).append(self.plan.note)
+        if status == Status.INTERRUPTED:
+            result.info["signal"] = stop.signum
+        self.log.close(result)
+        return result
+
+    def _loop(self, stop):
+        every = self.plan.every
+        thermo_every = self.thermo.every if self.thermo is not None else 0
+        chunk = _Chunk(self.model.count)
+        ck_every = self.checkpoint_every or 0
+        if not ck_every:
+            self.next_ck = math.inf
+        elif getattr(self, "next_ck", None) is None:
+            self.next_ck = self.steps + ck_every
+        # The kernel reads rest off a kick only after a call's first step: a Coulomb
+        # run that stops at rest is tested here at the end of every call, wherever
+        # calls end, so its stop step does not depend on them.
+        rest_watch = self.merged and bool(self.stop_mode & STOP_ON_REST)
+        while self.steps < self.n_total or (self.last_dt and not self.short_taken):
+            if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
+                self._begin_short_step()
+                self.next_frame = self.n_total
+            # A compiled call runs to the next frame, thermo line or checkpoint, or for
+            # about CHUNK_SECONDS, whichever is first.
+            target = min(self.next_frame, self.next_thermo, self.next_ck,
+                         self.steps + chunk.steps)
+            code = self._advance(chunk, int(target) - self.steps)
+            if rest_watch:
+                code = self._synchronise(code)
+            at_frame = self.steps >= self.next_frame or code != Pause.CHUNK_DONE or stop.requested
+            at_thermo = self.steps >= self.next_thermo
+            at_ck = self.steps >= self.next_ck
+            if at_frame or at_thermo:
+                if not rest_watch:
+                    code = self._synchronise(code)
+                ended, energies = self._check(code)
+                if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
+                                                      Status.UNSTABLE):
+                    return ended
+                frame = self.frame(energies)
+                if self.thermo is not None and (at_thermo or ended is not None):
+                    self.thermo.write_frame(frame)
+                    self.next_thermo = self.steps + thermo_every if thermo_every else math.inf
+                if at_frame:
+                    done = self._at_frame(frame, ended, stop)
+                    if done is not None:
+                        return done
+            if at_ck:  # (the cadence moves on first: the state saved holds the next one)
+                self.next_ck = self.steps + ck_every
+                self._checkpoint()
+        if self.limited:
+            return Status.MAX_STEPS, (
+                f"stopped after run.max_steps = {self.max_steps} steps at t = {self.t_now:.6g} "
+                f"before t_end = {self.t_end:g}; raise run.max_steps or run.dt")
+        shortened = f" (the last one shortened to {self.last_dt:.6g})" if self.short_taken else ""
+        return Status.T_END, f"reached t_end = {self.t_now:.12g} after {self.steps} steps{shortened}"
+
+    def _at_frame(self, frame: Frame, ended, stop):
+        """Record a frame; (status, message) when the run ends here, else None.
+
+        A stop request between two frames of the cadence checkpoints the run before
+        its extra frame is recorded, so a run continued from it writes the frames of
+        the cadence only, as the run that was never stopped.
+        """
+        interrupted = (Status.INTERRUPTED, (
+            f"interrupted by {stop.name} at t = {self.t_now:.12g} after {self.steps} of "
+            f"{self.n_total} steps; the frames up to then are kept"))
+        if self._finished():
+            stop = _NO_STOP  # every step is taken: the run ends as if no stop had come
+        if stop.requested and ended is None and self.steps < self.next_frame:
+            self._checkpoint()
+            self.log.record(frame)
+            return interrupted
+        self.log.record(frame)
+        self.next_frame = min(self.steps + self.plan.every, self.n_total)
+        if self._finished() and ended is None and self.thermo is not None \
+                and self.thermo.last_step != self.steps:
+            self.thermo.write_frame(frame)  # the thermo log ends at the run's end
+        if ended is not None:
+            return ended
+        if stop.requested:
+            self._checkpoint()
+            return interrupted
+        return None
+
+    _STATE_ARRAYS = ("u", "v", "f", "ledger", "counts")
+    _STATE_SCALARS = ("steps", "t_now", "dt_now", "short_taken", "n_total", "next_frame",
+                      "next_thermo", "next_ck", "e0")
+
+    def checkpoint_state(self) -> dict:
+        """Everything the run needs to go on from here: numpy arrays and numbers
+        (``numpy.savez`` keeps them exactly)."""
+        state = {name: getattr(self, name).copy() for name in self._STATE_ARRAYS}
+        state.update({name: np.float64(getattr(self, name)) if name in (
+            "t_now", "dt_now", "next_thermo", "next_ck", "e0") else np.int64(getattr(self, name))
+            for name in self._STATE_SCALARS})
+        state["active"] = self.state.active.copy()
+        state["opening"] = np.int64(self.opening)
+        state["frames"] = np.int64(self.log.count)
+        state["max_error"] = np.float64(self.log.max_balance_error)
+        state["thermo_lines"] = np.int64(getattr(self.thermo, "lines", 0))
+        for name in FrameLog._FIELDS:  # the run's first frame, kept by the Result
+            state[f"first_{name}"] = np.asarray(self.log.kept[name][0])
+        if self.event_log is not None:  # the events logged so far (output.events)
+            events = self.event_log.events
+            state["events_t"] = np.array([e.t for e in events], dtype=np.float64)
+            state["events_kind"] = np.array([EVENT_KINDS.index(e.kind) for e in events],
+                                            dtype=np.int8)
+            state["events_index"] = np.array([e.index for e in events], dtype=np.int64)
+        return state
+
+    def _restore(self, state: dict) -> None:
+        for name in self._STATE_ARRAYS:
+            getattr(self, name)[:] = state[name]
+        self.state.active[:] = state["active"]
+        self.opening = int(state["opening"])
+        for name in self._STATE_SCALARS:
+            value = state[name]
+            setattr(self, name, bool(value) if name == "short_taken" else (
+                float(value) if name in ("t_now", "dt_now", "next_thermo", "next_ck", "e0")
+                else int(value)))
+        first = Frame(*(np.asarray(state[f"first_{name}"]).item() if np.ndim(state[f"first_{name}"])
+                        == 0 else np.asarray(state[f"first_{name}"]) for name in FrameLog._FIELDS),
+                      initial=self.e0)
+        self.log.resume(int(state["frames"]), float(state["max_error"]), first)
+        if self.event_log is not None:
+            from ...result import Event
+            self.event_log.events = [
+                Event(t, EVENT_KINDS[k], i) for t, k, i in zip(
+                    state["events_t"].tolist(), state["events_kind"].tolist(),
+                    state["events_index"].tolist())]
+
+    def _finished(self) -> bool:
+        """Every step is taken (the run ends here whatever else happens)."""
+        return self.steps >= self.n_total and (not self.last_dt or self.short_taken)
+
+    def _checkpoint(self) -> None:
+        if self.on_checkpoint is None or self._finished():
+            return  # (a finished run has nothing to continue)
+        self.log.sync()  # the frames so far are on disk before the state that follows them
+        self.on_checkpoint(self.checkpoint_state())
+
+    def _control(self, n_steps: int) -> Call:
+        return Call(n_steps=int(n_steps), opening=self.opening, stop_contact=self.stop_contact)
+
+    def _records(self, control: Call) -> tuple:
+        """The kernel's arguments for one call."""
+        return self.features, self.chain, self.timestep, self.state, control, self.buffers
+
+    def _advance(self, chunk, n_steps: int) -> int:
+        taken, code = self._call(chunk, self._control(n_steps))
+        if taken == 0:  # a call always advances; guard against an endless loop
+            raise RuntimeError("internal error: the Verlet kernel took no step")
+        self.opening = 0
+        self.steps += taken
+        self.t_now = self.t_end if self.short_taken else self.steps * self.plan.dt
+        if self.bar is not None:
+            self.bar.update(taken)
+            self.bar.set_postfix_str(f"t = {self.t_now:.4g} / {self.t_end:g}", refresh=False)
+        return code
+
+    def _call(self, chunk, control: Call):
+        """One kernel call (taken, code); with output.events, its events drained
+        into the event log (calling again while the log fills)."""
+        if self.event_log is None:
+            return chunk.call(self.kernel, self._records(control))
+        return self.event_log.call(lambda c: chunk.call(self.kernel, self._records(c)), control,
+                                   self.steps)
+
+    def _begin_short_step(self) -> None:
+        if self.event_log is not None and self.merged:  # the half kick ending the last whole step
+            self.event_log.half_kick(self.v, self.f, self.model, 0.5 * self.plan.dt, self.t_now)
+            self.event_log.commit()
+        self.short_taken, self.dt_now = True, self.last_dt
+        if self.merged:  # complete the pending half kick; the new step opens the leapfrog again
+            _complete_half_kick(self.model, self.v, self.f, self.vs, self.ledger, self.counts,
+                                0.5 * self.timestep.dt)
+            self.opening = 1
+        self.timestep = Timestep(self.last_dt, *_drift_coefficients(self.model, self.last_dt))
+        self.n_total += 1
+
+    def _synchronise(self, code: int) -> int:
+        """Synchronise a merged-kick run's velocities (into vs); rest read off them."""
+        if self.merged:
+            m = self.model
+            self.sync = synchronise(self.v, self.f, m.eta, m.eta_static, m.inv_mass,
+                                           0.5 * self.dt_now, self.vs)
+            if self.event_log is not None:  # held: only the run's last one is counted
+                self.event_log.half_kick(self.v, self.f, m, 0.5 * self.dt_now, self.t_now)
+            if self.stop_mode & STOP_ON_REST and code == Pause.CHUNK_DONE \
+                    and not self.vs.any():
+                # at rest here (the kernel reads rest off the kick after the time
+                # it holds, i.e. the next call's first step)
+                code = Status.AT_REST
+        return code
+
+    def _check(self, code: int):
+        """``((status, message) or None, (kinetic, potential))``: whether the run ends
+        here, and the energies of the state it ends or goes on with."""
+        model, u, vs, dt, T = self.model, self.u, self.vs, self.plan.dt, self.T
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(vs))):
+            bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(vs)))[0])
+            return (Status.NONFINITE, (
+                f"non-finite state by t = {self.t_now:.6g} at granule {bad}: the step dt = "
+                f"{dt:g} is likely too large for the stiffest contact (period or collision time "
+                f"{T:.4g}); reduce run.dt")), None
+        ended = None
+        if code == Status.SEPARATED:
+            self.t_now = _backtrack_to_separation(model, u, vs, self.f, self.ledger,
+                                                  self.stop_contact, self.dt_now, self.t_now)
+            ended = Status.SEPARATED, (
+                f"contact {self.stop_contact} opened at t = {self.t_now:.12g} (located inside "
+                f"the step by a second-order backtrack)")
+        elif code == Status.AT_REST:
+            ended = Status.AT_REST, (
+                f"every granule at rest (held by static friction) at t = {self.t_now:.12g}")
+        problem = _overlap_problem(model, u, self.limits)
+        if problem:
+            message = f"{problem} at t = {self.t_now:.6g}; " + OVERLAP_ADVICE
+            if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+                message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
+                            f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
+            return (Status.OVERLAP, message), None
+        ke, pe = model.energies(u, vs)
+        balance = abs(ke + pe + self.ledger[0] - self.sync[0] + self.ledger[1] - self.e0)
+        if self.e0 > 0 and not balance <= _UNSTABLE_BALANCE * self.e0:
+            # A stable run balances its ledger to O(dt^2); an error as large
+            # as the initial energy itself means the integration blew up.
+            return (Status.UNSTABLE, (
+                f"energy ledger off by {balance / self.e0:.3g} x the initial energy at "
+                f"t = {self.t_now:.6g}: the integration is unstable; reduce run.dt (now "
+                f"{dt:g}; stiffest contact time {T:.4g})")), None
+        return ended, (ke, pe)
+
+
+class _NoStop:
+    requested = False
+
+
+_NO_STOP = _NoStop()
+
+
+def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt, counts):
+    """The Result of a Verlet run from its frame log."""
+    energy = EnergyLedger(
+        kinetic=log.array("kinetic"), potential=log.array("potential"),
+        coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0,
+        streamed_error=None if log.keep else log.max_balance_error)
+    x, v = log.array("x"), log.array("v")
+    counts_d = dict(zip(EVENT_KINDS, (int(n) for n in counts)))
+    info = {"features": model.features.describe(), "granules": model.count,
+            "units": model.units}
+    if not log.keep:
+        info["frames"] = log.count
+        info["frames_kept"] = "first and last (the others were streamed to the writers)"
+    if model.units == "physical":
+        info["scaled"] = scaled_parameters(model)
+    t = log.array("t")
+    return Result(
+        t=t, x=x, v=v, f=log.array("f"), energy=energy, status=status,
+        message=message, steps=steps, wall_time=wall, stepper="verlet", dt=dt,
+        t_final=float(t[-1]), x_final=x[-1].copy(), v_final=v[-1].copy(),
+        event_counts=counts_d, info=info)
+
+def _complete_half_kick(model: Model, v, f, vs, ledger, counts, h: float) -> None:
+    """Before the run's shorter last step, a Coulomb (merged-kick) run completes
+    its pending half kick h: v becomes the synchronised velocity and the kick's
+    work and counts enter the ledger, so the last step opens the leapfrog with
+    its own half kick, exactly as at t = 0."""
+    work, stops, slips = synchronise(v, f, model.eta, model.eta_static, model.inv_mass, h, vs)
+    v[:] = vs
+    ledger[0] -= work
+    counts[EventKind.STOP] += stops
+    counts[EventKind.SLIP] += slips
+
+
+class _Chunk:
+    """Steps per compiled call, adapted so that a call returns within about
+    :data:`~granular_chain.interrupts.CHUNK_SECONDS`: a stop request is then
+    honoured promptly whatever the chain length or the output cadence.
+
+    Parameters
+    ----------
+    count : int
+        Granules N; the first call takes about 2e6 granule-steps (a few ms).
+    """
+
+    def __init__(self, count: int):
+        self.steps = max(1, 2_000_000 // max(count, 1))
+
+    def call(self, kernel, records: tuple):
+        """Call the kernel once and adapt :attr:`steps` to its measured rate
+        (changing by at most 4x a call, so one slow call, such as the first,
+        which may compile, does not swing it)."""
+        begin = time.perf_counter()
+        taken, code = kernel(*records)
+        elapsed = time.perf_counter() - begin
+        if taken > 0:
+            target = taken * CHUNK_SECONDS / max(elapsed, 1e-6)
+            self.steps = int(max(1, self.steps / 4, min(target, 4 * self.steps)))
+        return taken, code
+
+
+def _uniform_code(model: Model, feat, E, P1, P2) -> int:
+    """Kernel feature code: UNIFORM when every granule has the same
+    parameters and every contact the same (d0, k, n), so the single sweep reads
+    scalars and streams only u, v, f; UNIT when moreover m = k = 1 and
+    d0 = 0 (the scaled touching chain), compiled in as constants. Only the sweep
+    (scenes without Coulomb friction) uses it; PER_GRANULE otherwise, so that
+    Coulomb scenes do not compile a second, identical specialisation."""
+    if feat.coulomb:
+        return PER_GRANULE
+    arrays = (model.mass, model.inv_mass, E, P1, P2, model.d0, model.k, model.n)
+    if not all(a.size == 0 or bool(np.all(a == a[0])) for a in arrays):
+        return PER_GRANULE
+    unit = all(a.size == 0 or a[0] == value
+               for a, value in ((model.mass, 1.0), (model.k, 1.0), (model.d0, 0.0)))
+    return UNIT if unit and model.count > 1 else UNIFORM
+
+
+def _overlap_limits(model: Model):
+    """Overlaps at which centres meet: r_i + r_(i+1) for contacts, r for a wall's granule."""
+    r = model.radius
+    return r[:-1] + r[1:], r[0], r[-1]
+
+
+def _overlap_caps(model: Model):
+    """Kernel form of the limits: olim (N + 1,) (left wall, contacts, right wall)
+    and the smallest contact force at which a contact reaches its limit."""
+    lim, left, right = _overlap_limits(model)
+    olim = np.concatenate(([left], lim, [right]))
+    if not lim.size:
+        return olim, math.inf
+    # The contact law's force at each limit, from the law the kernels use
+    # (laws.contact through net_forces with d0 = lim and u = 0, so delta = lim
+    # exactly), not from a second formula.
+    at_limit = np.zeros(lim.size)
+    _net_forces(model, np.zeros(model.count), at_limit, np.zeros(model.count), d0=lim)
+    return olim, float(np.min(at_limit))
+
+
+def _overlap_problem(model: Model, u, limits) -> str:
+    """Describe the first contact whose granules have passed each other, or ''.
+
+    Checked at the output cadence. An overlap of r_i + r_(i+1) puts two centres
+    on top of each other: beyond it the granules are in the wrong order (a
+    crossing between two frames leaves them so), and the one-sided contact
+    model no longer describes the scene.
+    """
+    lim, left, right = limits
+    if model.count > 1:
+        delta = model.d0 + u[:-1] - u[1:]
+        bad = np.flatnonzero(delta >= lim)
+        if bad.size:
+            i = int(bad[0])
+            return (f"contact {i} overlaps by {delta[i]:.4g}, not less than the sum of the "
+                    f"radii {lim[i]:.4g}")
+    w = model.walls
+    if model.features.left_wall and w[0] - u[0] >= left:
+        return f"granule 0 overlaps the left wall by {w[0] - u[0]:.4g}, more than its radius"
+    if model.features.right_wall and w[3] + u[-1] >= right:
+        return (f"granule {model.count - 1} overlaps the right wall by {w[3] + u[-1]:.4g}, "
+                f"more than its radius")
+    return ""
+
+
+def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):
+    """Move the state back from the end of the step to the moment contact i opened.
+
+    After opening, the overlap falls linearly at the relative speed to first
+    order, so the opening happened tau = -delta / (v_(i+1) - v_i) ago (clamped
+    to the step). Each granule is moved back along its acceleration at the end
+    of the step (spring, Coulomb and viscous), a second-order Taylor step, and
+    the friction work done in tau is taken off the ledger.
+    """
+    delta = model.d0[i] + u[i] - u[i + 1]
+    w = v[i + 1] - v[i]
+    tau = 0.0 if w <= 0 else min(max(-delta / w, 0.0), dt)
+    if tau == 0.0:
+        return t_now
+    s = np.sign(v)
+    acc = (f - model.eta * s - model.gamma * v) * model.inv_mass
+    acc[v == 0.0] = 0.0  # a granule at rest at the end of the step was stuck during tau
+    ledger[0] -= tau * float(np.dot(model.eta, np.abs(v)))
+    ledger[1] -= tau * float(np.dot(model.gamma, v * v))
+    u -= tau * v - 0.5 * tau * tau * acc
+    v -= tau * acc
+    _net_forces(model, u, np.zeros(max(model.count - 1, 1)), f)
+    return t_now - tau
+
+
+def _progress_bar(progress: Optional[bool], total: int):
+    if progress is False:
+        return None
+    if progress is None and not sys.stderr.isatty():
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, desc="simulating", unit="step", unit_scale=True, mininterval=0.5, delay=2.0,
+                file=sys.stderr, leave=False)
+
+
