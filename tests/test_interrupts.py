@@ -66,6 +66,14 @@ def start(mode, scene, cwd):
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = child.stdout.readline()
     assert line.strip() == "ready", child.stderr.read()
+    if mode == "cli":
+        # The command installs its signal handlers before it makes the run's folder
+        # (.run.partial-*): once that exists, a signal finds the run, however slowly a
+        # loaded machine got through loading the scene.
+        deadline = time.monotonic() + 60
+        while not any(cwd.glob(".run.partial-*/trajectory.h5")):
+            assert time.monotonic() < deadline and child.poll() is None, child.stderr.read()
+            time.sleep(0.05)
     time.sleep(0.5)  # let the long run get going
     return child
 
