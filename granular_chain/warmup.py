@@ -20,7 +20,7 @@ from pathlib import Path
 __all__ = ["kernels_cached", "prepare_kernels", "compile_notice", "NOTICE"]
 
 NOTICE = "compiling kernels, first run only (later runs reuse them) ..."
-_KERNEL_FILES = {"verlet": "verlet.verlet_chunk-*.nbi", "event": "events_kernel.*.nbi"}
+_KERNEL_FILES = {"verlet": "verlet.verlet_chunk-*.nbi", "event": "kernel.run_events-*.nbi"}
 
 
 def kernels_cached(stepper: str) -> bool:
@@ -32,7 +32,7 @@ def kernels_cached(stepper: str) -> bool:
     """
     pattern = _KERNEL_FILES.get(stepper, _KERNEL_FILES["verlet"])
     custom = os.environ.get("NUMBA_CACHE_DIR")
-    root = Path(custom) if custom else Path(__file__).resolve().parent / "steppers" / "__pycache__"
+    root = Path(custom) if custom else Path(__file__).resolve().parent / "steppers"
     return root.is_dir() and next(root.rglob(pattern), None) is not None
 
 

@@ -29,7 +29,7 @@ from ...units import internal_scales
 from .driver import drive, grow_buffers, next_budget
 from .kernel import run_events
 from .modes import initial_friction_modes
-from .options import event_options
+from .options import EventOptions, event_options
 from .pack import linear_step_cap, pack_run
 from .report import build_result
 
@@ -161,11 +161,14 @@ class EventBatch:
     """
 
     def __init__(self, scene, model: Model):
+        """``scene``: the Scene (read once, :func:`~.options.event_options`) or its
+        :class:`~.options.EventOptions`; ``model`` its Model."""
         if model.units != "scaled" or internal_scales(model) is not None:
             raise ValueError("EventBatch needs a scene in the kernel's scaled units "
                              "(mass 1, force coefficient 1, largest speed 1)")
         self.scene, self.model = scene, model
-        packed = pack_run(model, event_options(scene))
+        options = scene if isinstance(scene, EventOptions) else event_options(scene)
+        packed = pack_run(model, options)
         packed.records, self._flat = _into_bytes(packed.records)
         self.packed = packed
         self._template = self._flat.copy()

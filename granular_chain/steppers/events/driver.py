@@ -30,7 +30,7 @@ from ...result import EnergyLedger, Event, Result
 from ...units import internal_scales, scaled_model, speed_scale, unit_factors
 from .options import EventOptions, event_options
 from .output import record_final_frame
-from .pack import Packed, frame_buffers, pack_run
+from .pack import Packed, pack_run
 from .report import build_result
 
 __all__ = ["simulate_events", "checkpoint_state", "EventRun", "check_exponents",
@@ -86,16 +86,19 @@ def unscaled_atol(model: Model, atol: float) -> float:
     return atol * V if 0.0 < V < 1.0 else atol
 
 
-def simulate_events(scene, model: Model, log: FrameLog | None = None, *, resume=None,
+def simulate_events(options, model: Model, log: FrameLog | None = None, *, resume=None,
                     checkpoint=None, checkpoint_every: int = 0) -> Result:
     """Run the scene with the event stepper in its own scaled units
     (:func:`granular_chain.units.internal_scales`).
 
     Parameters
     ----------
-    scene, model
-        The scene and its Model (:func:`granular_chain.simulate.preflight`); the
-        scene is read once, by :func:`~.options.event_options`.
+    options : EventOptions or Scene
+        The run's options (:func:`~.options.event_options` of the scene; a Scene
+        is read with it here).
+    model : Model
+        The scene's Model (:func:`granular_chain.simulate.preflight`), in the
+        scene's units.
     log : FrameLog, optional
         Where the frames go as the run goes (the scene's units; ``Frame.step`` is
         the frame's number): handed on between kernel calls, so memory does not
@@ -116,7 +119,8 @@ def simulate_events(scene, model: Model, log: FrameLog | None = None, *, resume=
         Taylor steps between checkpoints (0: only at an interruption).
     """
     check_exponents(model)
-    options = event_options(scene)
+    if not isinstance(options, EventOptions):
+        options = event_options(options)
     scales = internal_scales(model)
     streamed = log is not None or resume is not None or checkpoint is not None
     if streamed and log is None:

@@ -314,7 +314,7 @@ def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, st
     P = settings.order
     t, tlo, t_end, out_dt = clock.time, clock.time_lo, settings.t_end, settings.frame_interval
     nm = clock.n_moving
-    u, v, dl, mov = state.u, state.v, state.overlap, state.moving
+    u, v, overlap, mov = state.u, state.v, state.overlap, state.moving
     while True:
         tf = clock.next_frame * out_dt
         if tf > t_new or tf > t_end:
@@ -330,8 +330,8 @@ def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, st
             v[i] = horner(work.v_series[i], P, x)
         for q in range(na):
             j = work.active[q]
-            work.saved_overlap[j] = dl[j]
-            dl[j] = horner(work.d_series[j], P, x)
+            work.saved_overlap[j] = overlap[j]
+            overlap[j] = horner(work.d_series[j], P, x)
         dwc, dwv = ledger_increment(coulomb, viscous, P, nm, model, state, work, x)
         record_frame(law, tf, clock, model, state, frames, dwc, dwv)
         for q in range(nm):
@@ -340,7 +340,7 @@ def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, st
             v[i] = work.saved_v[i]
         for q in range(na):
             j = work.active[q]
-            dl[j] = work.saved_overlap[j]
+            overlap[j] = work.saved_overlap[j]
         clock.next_frame += 1
     return GOING
 
@@ -350,7 +350,7 @@ def _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state,
     """Take the state to the end of the step (tau from its start, time t_new +
     t_lo_new) and add the friction work. False if the state turned non-finite."""
     nm = clock.n_moving
-    u, v, dl, mov = state.u, state.v, state.overlap, state.moving
+    u, v, overlap, mov = state.u, state.v, state.overlap, state.moving
     dwc, dwv = ledger_increment(coulomb, viscous, P, nm, model, state, work, tau)
     clock.work_coulomb += dwc
     clock.work_viscous += dwv
@@ -360,7 +360,7 @@ def _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state,
         v[i] = horner(work.v_series[i], P, tau)
     for q in range(na):
         j = work.active[q]
-        dl[j] = horner(work.d_series[j], P, tau)
+        overlap[j] = horner(work.d_series[j], P, tau)
     clock.time = t_new
     clock.time_lo = t_lo_new
     clock.steps += 1

@@ -111,11 +111,11 @@ def setup(p, coulomb, viscous, model, state):
     when the mode is not covered (overlap negative, both granules stuck, or
     both moving with unequal drag rates: those stay with the Taylor series).
     """
-    dl = state.overlap
-    if dl[1] < 0.0:
+    overlap = state.overlap
+    if overlap[1] < 0.0:
         return False
     mass, eta, v, slide = model.mass, model.eta, state.v, state.slide
-    m0, m1, kc, d0, v0, v1 = mass[0], mass[1], model.stiffness[1], dl[1], v[0], v[1]
+    m0, m1, k_contact, d0, v0, v1 = mass[0], mass[1], model.stiffness[1], overlap[1], v[0], v[1]
     g0 = model.gamma[0] if viscous else 0.0
     g1 = model.gamma[1] if viscous else 0.0
     eta0 = eta[0] if coulomb else 0.0
@@ -135,7 +135,7 @@ def setup(p, coulomb, viscous, model, state):
         c = g0 / m0
         if g1 / m1 != c:
             return False
-        K = kc * (1.0 / m0 + 1.0 / m1)
+        K = k_contact * (1.0 / m0 + 1.0 / m1)
         b = f0 / m0 - f1 / m1
         w0 = v0 - v1
         M = m0 + m1
@@ -147,13 +147,13 @@ def setup(p, coulomb, viscous, model, state):
         p.m_total = M
     elif mv0:
         c = g0 / m0
-        K = kc / m0
+        K = k_contact / m0
         b = f0 / m0
         w0 = v0
         p.case = 1.0
     elif mv1:
         c = g1 / m1
-        K = kc / m1
+        K = k_contact / m1
         b = -f1 / m1
         w0 = -v1
         p.case = 2.0
@@ -168,24 +168,24 @@ def setup(p, coulomb, viscous, model, state):
     p.v0_init = v0 if mv0 else 0.0
     p.v1_init = v1 if mv1 else 0.0
     p.eta_s_other = eta_s_other
-    p.k_contact = kc
+    p.k_contact = k_contact
     p.s0 = s0
     p.s1 = s1
     # D = K - c^2/4 with its low part (exact product, then TwoSum).
     cp, ce = two_prod(c, c)
-    dh, dl = two_sum(K, -0.25 * cp)
-    dl -= 0.25 * ce
-    dh, dl = two_sum(dh, dl)
+    dh, d_lo = two_sum(K, -0.25 * cp)
+    d_lo -= 0.25 * ce
+    dh, d_lo = two_sum(dh, d_lo)
     p.d_hi = dh
-    p.d_lo = dl
+    p.d_lo = d_lo
     if dh > 0.0:
         oh = math.sqrt(dh)
         sp, se = two_prod(oh, oh)
-        ol = ((dh - sp) - se + dl) / (2.0 * oh)
+        ol = ((dh - sp) - se + d_lo) / (2.0 * oh)
     elif dh < 0.0:
         oh = math.sqrt(-dh)
         sp, se = two_prod(oh, oh)
-        ol = ((-dh - sp) - se - dl) / (2.0 * oh)
+        ol = ((-dh - sp) - se - d_lo) / (2.0 * oh)
     else:
         oh = 0.0
         ol = 0.0

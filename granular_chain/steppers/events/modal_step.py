@@ -50,8 +50,8 @@ def try_jump(law, settings, clock, model, state):
     c^2 >= 4K: delta is a sum of two decaying exponentials (or (a + b t) e^(-ct/2)
     at critical damping), whose only zero is found in closed form.
     """
-    u, v, dl, mass, gamma, kc = state.u, state.v, state.overlap, model.mass, model.gamma, \
-        model.stiffness
+    u, v, overlap, mass = state.u, state.v, state.overlap, model.mass
+    gamma, stiffness = model.gamma, model.stiffness
     N = u.size
     if (N != 2 or law != LAW_LINEAR or model.present[0] == 1 or model.present[2] == 1
             or state.closed[1] == 0):
@@ -61,11 +61,11 @@ def try_jump(law, settings, clock, model, state):
     c = gamma[0] / mass[0]
     if c <= 0.0 or gamma[1] / mass[1] != c:
         return False
-    K = kc[1] * (1.0 / mass[0] + 1.0 / mass[1])
+    K = stiffness[1] * (1.0 / mass[0] + 1.0 / mass[1])
     disc = c * c - 4.0 * K
     if disc < 0.0:
         return False
-    d0 = dl[1]
+    d0 = overlap[1]
     w0 = v[0] - v[1]
     T = (settings.t_end - clock.time) - clock.time_lo
     if disc > 0.0:
@@ -94,14 +94,14 @@ def try_jump(law, settings, clock, model, state):
     UT = U0 + V0 * phi1(c, T)
     r = (u[0] - u[1]) + (dT - d0)
     e_before = (0.5 * mass[0] * v[0] ** 2 + 0.5 * mass[1] * v[1] ** 2
-                + contact_energy(LAW_LINEAR, d0, kc[1], 2.0))
+                + contact_energy(LAW_LINEAR, d0, stiffness[1], 2.0))
     u[0] = UT + mass[1] / M * r
     u[1] = UT - mass[0] / M * r
     v[0] = VT + mass[1] / M * wT
     v[1] = VT - mass[0] / M * wT
-    dl[1] = dT
+    overlap[1] = dT
     e_after = (0.5 * mass[0] * v[0] ** 2 + 0.5 * mass[1] * v[1] ** 2
-               + contact_energy(LAW_LINEAR, dT, kc[1], 2.0))
+               + contact_energy(LAW_LINEAR, dT, stiffness[1], 2.0))
     # The viscous work of the jumped tail, by the energy theorem (closed form).
     clock.work_viscous += e_before - e_after
     clock.jumped_from = clock.time
@@ -201,9 +201,9 @@ def _frames_in_mode(law, coulomb, viscous, t_new, settings, clock, model, state,
     """Frames at the output cadence up to t_new, from the mode's closed form.
     Returns Pause.LOG_FULL when the buffers are full (state untouched), else GOING."""
     p = work.modal[0]
-    u, v, dl = state.u, state.v, state.overlap
+    u, v, overlap = state.u, state.v, state.overlap
     t, tlo, t_end, out_dt = clock.time, clock.time_lo, settings.t_end, settings.frame_interval
-    e0, _ = modal_energy(coulomb, model, state, dl[1], v[0], v[1], 0.0, 0.0)
+    e0, _ = modal_energy(coulomb, model, state, overlap[1], v[0], v[1], 0.0, 0.0)
     while True:
         tf = clock.next_frame * out_dt
         if tf > t_new or tf > t_end:
@@ -214,14 +214,14 @@ def _frames_in_mode(law, coulomb, viscous, t_new, settings, clock, model, state,
         d, w, v0, v1, du0, du1 = modal_n2.state(p, x, 0.0)
         ex, wc = modal_energy(coulomb, model, state, d, v0, v1, du0, du1)
         wv = (e0 - ex - wc) if viscous else 0.0
-        su0, su1, sv0, sv1, sd = u[0], u[1], v[0], v[1], dl[1]
+        su0, su1, sv0, sv1, sd = u[0], u[1], v[0], v[1], overlap[1]
         u[0] += du0
         u[1] += du1
         v[0] = v0
         v[1] = v1
-        dl[1] = d
+        overlap[1] = d
         record_frame(law, tf, clock, model, state, frames, wc, wv)
-        u[0], u[1], v[0], v[1], dl[1] = su0, su1, sv0, sv1, sd
+        u[0], u[1], v[0], v[1], overlap[1] = su0, su1, sv0, sv1, sd
         clock.next_frame += 1
     return GOING
 
@@ -238,7 +238,7 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
     when the mode's energy bound does not exclude it).
     """
     p = work.modal[0]
-    u, v, dl = state.u, state.v, state.overlap
+    u, v, overlap = state.u, state.v, state.overlap
     t, tlo, t_end = clock.time, clock.time_lo, settings.t_end
     rem = (t_end - t) - tlo
     p.limit = model.overlap_limit[1]
@@ -258,7 +258,7 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
                                work, frames)
         if code != GOING:
             return code, 0, 0.0, 0
-    e0, _ = modal_energy(coulomb, model, state, dl[1], v[0], v[1], 0.0, 0.0)
+    e0, _ = modal_energy(coulomb, model, state, overlap[1], v[0], v[1], 0.0, 0.0)
     d, w, v0, v1, du0, du1 = modal_n2.state(p, th, tl)
     ex, wc = modal_energy(coulomb, model, state, d, v0, v1, du0, du1)
     clock.work_coulomb += wc
@@ -268,7 +268,7 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
     u[1] += du1
     v[0] = v0
     v[1] = v1
-    dl[1] = d
+    overlap[1] = d
     clock.time = t_new
     clock.time_lo = t_lo_new
     clock.steps += 1

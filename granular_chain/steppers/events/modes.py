@@ -40,8 +40,8 @@ def spring_force(law, model, state, i, skip):
 @numba.njit(cache=True, error_model="numpy")
 def force_rate(law, model, state, j):
     """Time derivative of the force of contact j, k (n - 1) delta^(n-2) w (0 when open)."""
-    dl = state.overlap
-    if model.present[j] == 0 or state.closed[j] == 0 or dl[j] < 0.0:
+    overlap = state.overlap
+    if model.present[j] == 0 or state.closed[j] == 0 or overlap[j] < 0.0:
         return 0.0
     N = state.v.size
     vl = state.v[j - 1] if j >= 1 else 0.0
@@ -49,10 +49,10 @@ def force_rate(law, model, state, j):
     w = vl - vr
     if law == LAW_LINEAR:
         return model.stiffness[j] * w
-    if dl[j] == 0.0:
+    if overlap[j] == 0.0:
         return 0.0
     a = model.exponent[j] - 1.0
-    return model.stiffness[j] * a * dl[j] ** (a - 1.0) * w
+    return model.stiffness[j] * a * overlap[j] ** (a - 1.0) * w
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -271,17 +271,17 @@ def is_moving(i, state, model):
 @numba.njit(cache=True, error_model="numpy")
 def update_moving_set(lo, hi, clock, model, state):
     """Add to or remove from the moving set the granules lo..hi whose membership changed."""
-    am, pos, mov = state.is_moving, state.moving_pos, state.moving
+    in_moving, pos, mov = state.is_moving, state.moving_pos, state.moving
     nmv = clock.n_moving
     for i in range(lo, hi + 1):
         inn = is_moving(i, state, model)
-        if inn == 1 and am[i] == 0:
-            am[i] = 1
+        if inn == 1 and in_moving[i] == 0:
+            in_moving[i] = 1
             pos[i] = nmv
             mov[nmv] = i
             nmv += 1
-        elif inn == 0 and am[i] == 1:
-            am[i] = 0
+        elif inn == 0 and in_moving[i] == 1:
+            in_moving[i] = 0
             last = mov[nmv - 1]
             mov[pos[i]] = last
             pos[last] = pos[i]

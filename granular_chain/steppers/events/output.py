@@ -13,7 +13,7 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
     (a frame inside a step, before the step's work is added), else 0.
     """
     N = state.u.size
-    u, v, dl = state.u, state.v, state.overlap
+    u, v, overlap = state.u, state.v, state.overlap
     k = clock.n_frames
     frames.t[k] = t
     ke = 0.0
@@ -26,8 +26,8 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
     for j in range(N + 1):
         if model.present[j] == 0:
             continue
-        c = contact_force(law, dl[j], model.stiffness[j], model.exponent[j])
-        pe += contact_energy(law, dl[j], model.stiffness[j], model.exponent[j])
+        c = contact_force(law, overlap[j], model.stiffness[j], model.exponent[j])
+        pe += contact_energy(law, overlap[j], model.stiffness[j], model.exponent[j])
         if j >= 1:
             frames.f[k, j - 1] -= c
         if j < N:

@@ -86,21 +86,21 @@ def _contacts(model: Model):
     """present, overlap, stiffness, exponent of the kernel's contacts 0..N."""
     N = model.count
     present = np.zeros(N + 1, dtype=np.int8)
-    dl = np.zeros(N + 1)
-    kc = np.ones(N + 1)
-    nexp = np.full(N + 1, 2.0)
+    overlap = np.zeros(N + 1)
+    stiffness = np.ones(N + 1)
+    exponent = np.full(N + 1, 2.0)
     present[1:N] = 1
-    dl[1:N] = model.d0
-    kc[1:N] = model.k
-    nexp[1:N] = model.n
+    overlap[1:N] = model.d0
+    stiffness[1:N] = model.k
+    exponent[1:N] = model.n
     w = model.walls
     if model.features.left_wall:
         present[0] = 1
-        dl[0], kc[0], nexp[0] = w[0], w[1], w[2]
+        overlap[0], stiffness[0], exponent[0] = w[0], w[1], w[2]
     if model.features.right_wall:
         present[N] = 1
-        dl[N], kc[N], nexp[N] = w[3], w[4], w[5]
-    return present, dl, kc, nexp
+        overlap[N], stiffness[N], exponent[N] = w[3], w[4], w[5]
+    return present, overlap, stiffness, exponent
 
 
 def _overlap_limits(model: Model) -> np.ndarray:
@@ -164,14 +164,14 @@ def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packe
     law = int(feat.law)
     linear = law == LAW_LINEAR
     settings = _settings(options, N, linear)
-    present, dl, kc, nexp = _contacts(model)
-    chain = ChainArrays(x0=model.x0, present=present, stiffness=kc, exponent=nexp,
+    present, overlap, stiffness, exponent = _contacts(model)
+    chain = ChainArrays(x0=model.x0, present=present, stiffness=stiffness, exponent=exponent,
                         mass=model.mass, eta=model.eta, eta_static=model.eta_static,
                         gamma=model.gamma, overlap_limit=_overlap_limits(model),
                         has_coulomb=np.zeros(N, dtype=np.int8))
     v = model.v0.copy()
-    state = MotionState(u=np.zeros(N), v=v, overlap=dl,
-                        closed=((dl > 0) & (present == 1)).astype(np.int8),
+    state = MotionState(u=np.zeros(N), v=v, overlap=overlap,
+                        closed=((overlap > 0) & (present == 1)).astype(np.int8),
                         slide=np.zeros(N, dtype=np.int8), moving=np.zeros(N, dtype=np.int64),
                         is_moving=np.zeros(N, dtype=np.int8),
                         moving_pos=np.zeros(N, dtype=np.int64))

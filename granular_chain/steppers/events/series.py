@@ -75,22 +75,22 @@ def _switch_forces(law, tol_v, na, model, state, work):
     where the force has a branch point."""
     linear = law == LAW_LINEAR
     N = state.v.size
-    v, dl, kc, nexp = state.v, state.overlap, model.stiffness, model.exponent
+    v, overlap, stiffness, exponent = state.v, state.overlap, model.stiffness, model.exponent
     D, Fc, on = work.d_series, work.f_series, work.force_on
     for q in range(na):
         j = work.active[q]
-        D[j, 0] = dl[j]
+        D[j, 0] = overlap[j]
         on[j] = 0.0
         if state.closed[j] == 1:
             if linear:
                 on[j] = 1.0
-            elif dl[j] > 0.0:
+            elif overlap[j] > 0.0:
                 vl = v[j - 1] if j >= 1 else 0.0
                 vr = v[j] if j < N else 0.0
-                aexp = nexp[j]
-                if kc[j] * dl[j] ** aexp > 0.1 * aexp * abs(vl - vr) * tol_v:
+                aexp = exponent[j]
+                if stiffness[j] * overlap[j] ** aexp > 0.1 * aexp * abs(vl - vr) * tol_v:
                     on[j] = 1.0
-        Fc[j, 0] = contact_force(law, dl[j], kc[j], nexp[j]) if on[j] == 1.0 else 0.0
+        Fc[j, 0] = contact_force(law, overlap[j], stiffness[j], exponent[j]) if on[j] == 1.0 else 0.0
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -99,9 +99,9 @@ def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
     step's contacts' overlaps and forces (``work.*_series``)."""
     linear = law == LAW_LINEAR
     N = state.v.size
-    mov, act, am, slide = state.moving, work.active, state.is_moving, state.slide
+    mov, act, in_moving, slide = state.moving, work.active, state.is_moving, state.slide
     U, V, D, Fc, on = work.u_series, work.v_series, work.d_series, work.f_series, work.force_on
-    kc, nexp, mass, eta, gamma = model.stiffness, model.exponent, model.mass, model.eta, model.gamma
+    stiffness, exponent, mass, eta, gamma = model.stiffness, model.exponent, model.mass, model.eta, model.gamma
     for q in range(nm):
         i = mov[q]
         U[i, 0] = state.u[i]
@@ -111,7 +111,7 @@ def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
         if k >= 1:
             for q in range(na):
                 j = act[q]
-                Fc[j, k] = force_term(linear, on[j] == 1.0, kc[j], nexp[j], D[j], Fc[j], k)
+                Fc[j, k] = force_term(linear, on[j] == 1.0, stiffness[j], exponent[j], D[j], Fc[j], k)
         for q in range(nm):
             i = mov[q]
             a = Fc[i, k] - Fc[i + 1, k]
@@ -126,14 +126,14 @@ def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
             j = act[q]
             vl = 0.0
             vr = 0.0
-            if j >= 1 and am[j - 1] == 1:
+            if j >= 1 and in_moving[j - 1] == 1:
                 vl = V[j - 1, k]
-            if j < N and am[j] == 1:
+            if j < N and in_moving[j] == 1:
                 vr = V[j, k]
             D[j, k + 1] = (vl - vr) / (k + 1)
     for q in range(na):
         j = act[q]
-        Fc[j, P] = force_term(linear, on[j] == 1.0, kc[j], nexp[j], D[j], Fc[j], P)
+        Fc[j, P] = force_term(linear, on[j] == 1.0, stiffness[j], exponent[j], D[j], Fc[j], P)
 
 
 @numba.njit(cache=True, error_model="numpy")
