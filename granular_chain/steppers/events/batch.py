@@ -62,7 +62,7 @@ class PointResults(NamedTuple):
     t_stop: np.ndarray   #: (M, N) time of each granule's first stop event, NaN if none
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _extract(p, code, clock, frames, log, out):
     """Store point p's end state (see :class:`PointResults`)."""
     out.code[p] = code
@@ -81,7 +81,7 @@ def _extract(p, code, clock, frames, log, out):
                 out.t_stop[p, i] = log.t[q]
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _run_points(law, coulomb, viscous, rec, flat, template, points, out, start, end):
     """Run the packed scene once per row start <= p < end of ``points``.
 

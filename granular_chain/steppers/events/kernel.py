@@ -70,7 +70,7 @@ from .series import build_series, horner, increment, ledger_increment, step_size
 ZENO_BATCHES = 200
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def run_events(law, coulomb, viscous, settings_array, clock_array, model, state, work,
                frames, log):
     """Advance the event-driven motion until the run ends, a buffer fills or the
@@ -128,7 +128,7 @@ def run_events(law, coulomb, viscous, settings_array, clock_array, model, state,
             return code
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _buffers_short(clock, state, frames, log):
     """Too little room for a pass: 4 frames, or an event per granule and contact."""
     N = state.u.size
@@ -136,7 +136,7 @@ def _buffers_short(clock, state, frames, log):
             or log.t.size - clock.n_events < 2 * N + 4)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _start(law, settings, clock, model, state, work, frames, log):
     """The first call: settle the initial modes, build the moving set, record the
     first frame; the run may end at once (at rest, or the overdamped jump)."""
@@ -167,7 +167,7 @@ def _start(law, settings, clock, model, state, work, frames, log):
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _before_pass(law, settings, clock, model, state, frames, log):
     """Before a pass of the main loop: t_end reached, the step limit, room in the buffers."""
     t = clock.time
@@ -182,7 +182,7 @@ def _before_pass(law, settings, clock, model, state, frames, log):
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _step(law, coulomb, viscous, settings, clock, model, state, work, frames):
     """One step in the current mode, closed-form (two granules, n = 2, contact
     closed) or Taylor. Returns (code, event, tau_e, ncand) as :func:`taylor_step`."""
@@ -199,7 +199,7 @@ def _step(law, coulomb, viscous, settings, clock, model, state, work, frames):
     return taylor_step(law, coulomb, viscous, settings, clock, model, state, work, frames)
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(inline="always", cache=True, _nrt=False)
 def _add_contacts(i, model, work, na):
     """Append the (present, not yet listed) contacts i and i+1 of granule i to active[:na]."""
     for j in range(i, i + 2):
@@ -210,7 +210,7 @@ def _add_contacts(i, model, work, na):
     return na
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _collect_active(nm, model, state, work):
     """The contacts of the moving set and the stuck granules they touch (and those
     granules' contacts), from the incrementally kept moving set: O(active), not
@@ -238,7 +238,7 @@ def _collect_active(nm, model, state, work):
     return na, nc
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, frames):
     """One Taylor step of the mode, to its first event or its step size.
 
@@ -305,7 +305,7 @@ def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, fram
     return GOING, 1, tau_e, ncand
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, state, work,
                     frames):
     """Frames at the output cadence inside the step, up to t_new, from the series.
@@ -345,7 +345,7 @@ def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, st
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state, work):
     """Take the state to the end of the step (tau from its start, time t_new +
     t_lo_new) and add the friction work. False if the state turned non-finite."""
@@ -370,7 +370,7 @@ def _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state,
     return True
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _apply_roots(law, limit, ncand, model, state, work):
     """Set the event quantities of every candidate with a root <= limit exactly
     (overlap 0, velocity 0, the slip's direction) and mark them for settle."""
@@ -390,7 +390,7 @@ def _apply_roots(law, limit, ncand, model, state, work):
                 work.granule_flag[i] = 2  # settle keeps this root-located slip
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _batch_window(limit, ncand, N, work):
     """The granules settle looks at: around the batch's events (it grows the
     window where a change reaches its edge); empty when no event changes a mode."""
@@ -413,7 +413,7 @@ def _batch_window(limit, ncand, N, work):
     work.window[1] = min(whi, N - 1)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _event_batch(law, tau_e, ncand, settings, clock, model, state, work, frames, log):
     """The events of a step ending at its earliest root tau_e: roots of different
     event functions at one true instant agree to a few ulps of tau, so all
@@ -453,7 +453,7 @@ def _event_batch(law, tau_e, ncand, settings, clock, model, state, work, frames,
                         frames)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _after_batch(law, t_new, tau_e, nev_before, opened, settings, clock, model, state, frames):
     """The run's ends after an event batch: Zeno, separation, rest, the event
     limit, the overdamped jump. Returns a Status or GOING."""

@@ -80,14 +80,14 @@ MODE_DTYPE = np.dtype([
 ], align=True)
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_sum(a, b):
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_prod(a, b):
     """a*b = p + e exactly (Dekker; no FMA needed)."""
     p = a * b
@@ -101,7 +101,7 @@ def two_prod(a, b):
     return p, e
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def setup(p, coulomb, viscous, model, state):
     """Fill the mode record ``p`` of granules 0, 1 and their closed contact 1.
 
@@ -195,7 +195,7 @@ def setup(p, coulomb, viscous, model, state):
     return math.isfinite(dh) and math.isfinite(oh)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _csa(p, th, tl):
     """e^(-c tau/2) C(tau), e^(-c tau/2) S(tau), e^(-c tau) for tau = th + tl."""
     c = p.c
@@ -230,7 +230,7 @@ def _csa(p, th, tl):
     return A, A * (th + tl), E
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def slow_rate(K, half_c, kap):
     """Slow decay rate of an overdamped mode, c/2 - sqrt(c^2/4 - K), written as
     K / (c/2 + kap) (kap = sqrt(c^2/4 - K)): the difference form cancels to nothing
@@ -238,7 +238,7 @@ def slow_rate(K, half_c, kap):
     return K / (half_c + kap)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def state(p, th, tl):
     """delta, w = delta', v0, v1, du0, du1 at tau = th + tl from the mode start.
 
@@ -341,7 +341,7 @@ def state(p, th, tl):
     return delta, w, 0.0, -w, 0.0, -dd
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def g_event2(p, kind, th, tl):
     """Event function and its time derivative (g < 0 on the valid side):
     0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip of the stuck
@@ -372,13 +372,13 @@ def g_event2(p, kind, th, tl):
     return -p.s1 * v1, -p.s1 * a1
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def g_event(p, kind, th, tl):
     g, gd = g_event2(p, kind, th, tl)
     return g
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _root_in_bracket(p, kind, lo, hi):
     """Root of g on [lo, hi] with g(lo) < 0 <= g(hi), to an ulp, as (th, tl).
 
@@ -416,7 +416,7 @@ def _root_in_bracket(p, kind, lo, hi):
     return th, tl
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _max_of(p, kind, lo, hi):
     """Interior maximum of g on [lo, hi] with g'(lo) > 0 > g'(hi) (bisection on g')."""
     for _ in range(200):
@@ -431,14 +431,14 @@ def _max_of(p, kind, lo, hi):
     return lo
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def sample_step(p):
     """Sampling interval: a quarter of the fastest time scale of the mode."""
     rate = max(math.sqrt(p.k_rate), 0.5 * p.c, abs(p.om_hi))
     return 0.25 / rate
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def slow_sample_step(p):
     """Largest sampling interval: sample_step, or a quarter of the slow time
     scale 1/lambda_slow of an overdamped mode (D <= 0), lambda_slow =
@@ -449,7 +449,7 @@ def slow_sample_step(p):
     return max(fast, 0.25 / slow_rate(p.k_rate, 0.5 * p.c, abs(p.om_hi)))
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def overlap_bound(p):
     """Upper bound on delta over the whole mode (inf when there is none).
 
@@ -464,7 +464,7 @@ def overlap_bound(p):
     return p.drive / K + math.sqrt(y0 * y0 + w0 * w0 / K)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def open_root_analytic(p, h):
     """First tau in (0, h] with y(tau) = 0 when b = 0 (delta = y): closed form.
 
@@ -518,7 +518,7 @@ def open_root_analytic(p, h):
     return th, tl
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _acc_roundoff(p):
     """Roundoff bound of a granule's acceleration at the start of the mode:
     1e-12 times the terms that cancel in it (drive, spring, drag, shared force)."""
@@ -529,7 +529,7 @@ def _acc_roundoff(p):
     return 1e-12 * s
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def first_root(p, kind, lo, hi, nsamp):
     """First tau in [lo, hi] where g_event(kind) reaches 0 from below, as (th, tl).
 

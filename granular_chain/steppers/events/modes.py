@@ -18,7 +18,7 @@ from ...codes import EventKind
 from ...laws.contact import LAW_LINEAR, contact_force
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _contact_force(law, model, state, j):
     """Force of contact j (0 when absent or open)."""
     if model.present[j] == 0 or state.closed[j] == 0:
@@ -26,7 +26,7 @@ def _contact_force(law, model, state, j):
     return contact_force(law, state.overlap[j], model.stiffness[j], model.exponent[j])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def spring_force(law, model, state, i, skip):
     """Net contact force on granule i (contact ``skip`` left out; -5: none)."""
     f = 0.0
@@ -37,7 +37,7 @@ def spring_force(law, model, state, i, skip):
     return f
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def force_rate(law, model, state, j):
     """Time derivative of the force of contact j, k (n - 1) delta^(n-2) w (0 when open)."""
     overlap = state.overlap
@@ -55,7 +55,7 @@ def force_rate(law, model, state, j):
     return model.stiffness[j] * a * overlap[j] ** (a - 1.0) * w
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def acceleration(law, model, state, i, skip):
     """Acceleration of granule i in its mode (0 when stuck or outside the chain)."""
     N = state.v.size
@@ -70,7 +70,7 @@ def acceleration(law, model, state, i, skip):
     return a / model.mass[i]
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def initial_friction_modes(model, state):
     """Friction modes at the start: ``has_coulomb`` 1 where a static threshold
     exists (Coulomb friction), ``slide`` the sign of v there, 2 (no friction) elsewhere."""
@@ -84,7 +84,7 @@ def initial_friction_modes(model, state):
             slide[i] = 2
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _contact_mode(law, j, model, state, work):
     """The mode contact j must have now (1 closed, 0 open)."""
     N = state.v.size
@@ -120,7 +120,7 @@ def _contact_mode(law, j, model, state, work):
     return 1
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _friction_mode(law, i, model, state, work):
     """The friction mode granule i (with Coulomb friction) must have now."""
     v = state.v[i]
@@ -145,7 +145,7 @@ def _friction_mode(law, i, model, state, work):
     return 0
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _save_old(state, work, a, b):
     """Save the modes of granules a..b and contacts a..b+1 (clipped)."""
     N = state.slide.size
@@ -155,7 +155,7 @@ def _save_old(state, work, a, b):
         work.old_closed[j] = state.closed[j]
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _settle_window(law, model, state, work):
     """Iterate the modes of the window ``work.window`` to a fixed point.
 
@@ -207,7 +207,7 @@ def _settle_window(law, model, state, work):
     work.window[1] = hi
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def log_event(t, kind, index, clock, log):
     """Append an event (time, codes.EventKind, model index) to the log."""
     n = clock.n_events
@@ -218,7 +218,7 @@ def log_event(t, kind, index, clock, log):
     log.counts[kind] += 1
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def settle(law, t, settings, clock, model, state, work, log):
     """Re-derive the modes in ``work.window`` from the state at an event batch
     (time t) and log what changed. Returns 1 if the watched contact opened.
@@ -248,7 +248,7 @@ def settle(law, t, settings, clock, model, state, work, log):
     return opened
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def is_moving(i, state, model):
     """Member of the moving set: sliding, or frictionless and not at rest
     force-free (v != 0 or a closed contact). A frictionless granule at rest
@@ -268,7 +268,7 @@ def is_moving(i, state, model):
     return 0
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def update_moving_set(lo, hi, clock, model, state):
     """Add to or remove from the moving set the granules lo..hi whose membership changed."""
     in_moving, pos, mov = state.is_moving, state.moving_pos, state.moving
@@ -289,7 +289,7 @@ def update_moving_set(lo, hi, clock, model, state):
     clock.n_moving = nmv
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def all_at_rest(law, clock, model, state):
     """Every granule at rest for good. Granules outside the moving set are stuck
     (v = 0 exactly): only the moving set needs a look."""

@@ -5,7 +5,7 @@ import numba
 from ...laws.contact import contact_energy, contact_force
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous):
     """Append the frame of the current state at time ``t`` to ``frames``.
 
@@ -39,7 +39,7 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
     clock.n_frames = k + 1
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def record_final_frame(law, clock_array, model, state, frames):
     """A frame at the clock's time (driver: an interrupted run's last state)."""
     clock = clock_array[0]

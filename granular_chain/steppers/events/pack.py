@@ -57,7 +57,7 @@ class Packed:
         return self.kernel(self.law, self.coulomb, self.viscous, *self.records)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def linear_step_cap(model):
     """n = 2: largest step, LINEAR_STEP / L with L a bound on the eigenvalues of
     any linear mode: drag rate plus twice the fastest contact frequency (a

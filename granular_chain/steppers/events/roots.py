@@ -26,7 +26,7 @@ CENTRES_MEET = -2
 SAMPLES = 16
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _g(c, P, sgn, shift, deriv, x):
     s, d = horner_d(c, P, x)
     if deriv:
@@ -34,7 +34,7 @@ def _g(c, P, sgn, shift, deriv, x):
     return sgn * s - shift
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _brent(c, P, sgn, shift, deriv, xa, xb, fa, fb):
     """Brent's root of g on [xa, xb] with fa*fb <= 0 (scipy's brentq, rtol 4 eps)."""
     if fa == 0.0:
@@ -89,7 +89,7 @@ def _brent(c, P, sgn, shift, deriv, xa, xb, fa, fb):
     return xcur
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def first_root(c, P, sgn, shift, h):
     """First tau in [0, h] where g = sgn * poly(c) - shift reaches 0 from below.
 
@@ -153,7 +153,7 @@ def first_root(c, P, sgn, shift, h):
     return math.inf
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _add(work, ncand, kind, index, root):
     work.cand_kind[ncand] = kind
     work.cand_index[ncand] = index
@@ -161,7 +161,7 @@ def _add(work, ncand, kind, index, root):
     return ncand + 1
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _switch_on_overlap(P, tol_v, j, model, state, work):
     """Overlap ``delta_on`` at which a closed contact whose force is off gets it
     back (-1: none), so that the impulse left out stays below tol_v / 10.
@@ -190,7 +190,7 @@ def _switch_on_overlap(P, tol_v, j, model, state, work):
     return don
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def contact_candidates(linear, P, h, tol_v, na, model, state, work):
     """Roots of every contact's event functions within [0, h]: opening (and the
     force switched on again, and the centres meeting) of a closed contact,
@@ -221,7 +221,7 @@ def contact_candidates(linear, P, h, tol_v, na, model, state, work):
     return tau_e, ncand
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def friction_candidates(P, h, rtol, nm, nc, ncand, tau_e, model, state, work):
     """Coulomb friction's roots within [0, h]: a sliding granule stopping, a
     stuck one (``work.stuck[:nc]``) whose spring force reaches its static

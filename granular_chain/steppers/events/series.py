@@ -22,7 +22,7 @@ import numba
 from ...laws.contact import LAW_LINEAR, contact_force
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def horner(c, P, x):
     """sum_{k<=P} c_k x^k."""
     s = c[P]
@@ -31,7 +31,7 @@ def horner(c, P, x):
     return s
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def horner_d(c, P, x):
     """Value and derivative of sum c_k x^k."""
     s = c[P]
@@ -42,7 +42,7 @@ def horner_d(c, P, x):
     return s, d
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def increment(c, P, x):
     """sum_{k>=1} c_k x^k (the change over the step, without cancelling c_0)."""
     s = c[P]
@@ -51,7 +51,7 @@ def increment(c, P, x):
     return s * x
 
 
-@numba.njit(inline="always", cache=True)
+@numba.njit(inline="always", cache=True, _nrt=False)
 def force_term(linear, on, k_c, n_c, Dj, Fj, k):
     """k-th Taylor coefficient of a contact force k_c delta^(n_c - 1) from the overlap's
     coefficients Dj and the force's lower ones Fj (power recurrence); 0 when switched off."""
@@ -66,7 +66,7 @@ def force_term(linear, on, k_c, n_c, Dj, Fj, k):
     return s / (k * Dj[0])
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _switch_forces(law, tol_v, na, model, state, work):
     """Zeroth coefficients of the step's overlaps and forces, and which closed
     contacts have their force on (``work.force_on``): always for n = 2; for other
@@ -93,7 +93,7 @@ def _switch_forces(law, tol_v, na, model, state, work):
         Fc[j, 0] = contact_force(law, overlap[j], stiffness[j], exponent[j]) if on[j] == 1.0 else 0.0
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
     """Taylor coefficients to order P of the moving granules' u, v and of the
     step's contacts' overlaps and forces (``work.*_series``)."""
@@ -136,7 +136,7 @@ def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
         Fc[j, P] = force_term(linear, on[j] == 1.0, stiffness[j], exponent[j], D[j], Fc[j], P)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def step_size(linear, P, rtol, atol, h, nm, na, state, work):
     """The step: ``h`` cut so that the last two terms of every controlled series
     are below ``rtol |x| + atol`` (Jorba & Zou).
@@ -176,7 +176,7 @@ def step_size(linear, P, rtol, atol, h, nm, na, state, work):
     return h
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _grazing_cap(P, h, na, work):
     """Keep the step inside half the distance to the branch points of a closed
     contact near a grazing minimum (at tau_m, delta_m > 0).
@@ -204,7 +204,7 @@ def _grazing_cap(P, h, na, work):
     return h
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def ledger_increment(coulomb, viscous, P, nm, model, state, work, tau):
     """Energy dissipated by Coulomb and viscous friction over [0, tau] of the step,
     as (coulomb, viscous).
