@@ -167,7 +167,7 @@ def _start(law, settings, clock, model, state, work, frames, log):
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _before_pass(law, settings, clock, model, state, frames, log):
     """Before a pass of the main loop: t_end reached, the step limit, room in the buffers."""
     t = clock.time
@@ -182,7 +182,7 @@ def _before_pass(law, settings, clock, model, state, frames, log):
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _step(law, coulomb, viscous, settings, clock, model, state, work, frames):
     """One step in the current mode, closed-form (two granules, n = 2, contact
     closed) or Taylor. Returns (code, event, tau_e, ncand) as :func:`taylor_step`."""
@@ -210,7 +210,7 @@ def _add_contacts(i, model, work, na):
     return na
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _collect_active(nm, model, state, work):
     """The contacts of the moving set and the stuck granules they touch (and those
     granules' contacts), from the incrementally kept moving set: O(active), not
@@ -238,7 +238,7 @@ def _collect_active(nm, model, state, work):
     return na, nc
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, frames):
     """One Taylor step of the mode, to its first event or its step size.
 
@@ -345,7 +345,7 @@ def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, st
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state, work):
     """Take the state to the end of the step (tau from its start, time t_new +
     t_lo_new) and add the friction work. False if the state turned non-finite."""

@@ -190,7 +190,7 @@ def _switch_on_overlap(P, tol_v, j, model, state, work):
     return don
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def contact_candidates(linear, P, h, tol_v, na, model, state, work):
     """Roots of every contact's event functions within [0, h]: opening (and the
     force switched on again, and the centres meeting) of a closed contact,
@@ -221,7 +221,7 @@ def contact_candidates(linear, P, h, tol_v, na, model, state, work):
     return tau_e, ncand
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def friction_candidates(P, h, rtol, nm, nc, ncand, tau_e, model, state, work):
     """Coulomb friction's roots within [0, h]: a sliding granule stopping, a
     stuck one (``work.stuck[:nc]``) whose spring force reaches its static

@@ -66,7 +66,7 @@ def force_term(linear, on, k_c, n_c, Dj, Fj, k):
     return s / (k * Dj[0])
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _switch_forces(law, tol_v, na, model, state, work):
     """Zeroth coefficients of the step's overlaps and forces, and which closed
     contacts have their force on (``work.force_on``): always for n = 2; for other
@@ -93,7 +93,7 @@ def _switch_forces(law, tol_v, na, model, state, work):
         Fc[j, 0] = contact_force(law, overlap[j], stiffness[j], exponent[j]) if on[j] == 1.0 else 0.0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
     """Taylor coefficients to order P of the moving granules' u, v and of the
     step's contacts' overlaps and forces (``work.*_series``)."""
@@ -136,7 +136,7 @@ def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
         Fc[j, P] = force_term(linear, on[j] == 1.0, stiffness[j], exponent[j], D[j], Fc[j], P)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def step_size(linear, P, rtol, atol, h, nm, na, state, work):
     """The step: ``h`` cut so that the last two terms of every controlled series
     are below ``rtol |x| + atol`` (Jorba & Zou).
@@ -176,7 +176,7 @@ def step_size(linear, P, rtol, atol, h, nm, na, state, work):
     return h
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _grazing_cap(P, h, na, work):
     """Keep the step inside half the distance to the branch points of a closed
     contact near a grazing minimum (at tau_m, delta_m > 0).
