@@ -81,7 +81,7 @@ def _extract(p, code, clock, frames, log, out):
                 out.t_stop[p, i] = log.t[q]
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(cache=True, error_model="numpy")  # (NRT on: numba's slice copies need it)
 def _run_points(law, coulomb, viscous, rec, flat, template, points, out, start, end):
     """Run the packed scene once per row start <= p < end of ``points``.
 

@@ -222,15 +222,16 @@ def drive(packed: Packed, stop=None, run=None):
     Status.MAX_STEPS (``packed.out_of_steps``). Returns the code and the wall
     time (seconds).
     """
-    settings, clock = packed.settings, packed.clock
+    settings = packed.records.settings
     budget = FIRST_BUDGET if run is None else run.budget
     start = time.perf_counter()
+    clock = packed.clock
     mark = (float(clock.time), int(clock.steps)) if run is None else run.mark
     while True:
         if stop is None:
-            settings.budget = 0
+            settings["budget"] = 0
         else:
-            settings.budget = budget if run is None else run.passes(budget)
+            settings["budget"] = budget if run is None else run.passes(budget)
         t0 = time.perf_counter()
         code = packed.call()
         if code == Pause.LOG_FULL:
@@ -244,6 +245,7 @@ def drive(packed: Packed, stop=None, run=None):
                 packed.out_of_steps = True
                 _final_frame(packed)
                 break
+            clock = packed.clock
             mark = (float(clock.time), int(clock.steps))
         else:
             break
@@ -254,7 +256,7 @@ def drive(packed: Packed, stop=None, run=None):
             code = Status.INTERRUPTED
             _final_frame(packed)
             break
-    settings.budget = 0
+    settings["budget"] = 0
     return int(code), time.perf_counter() - start
 
 
@@ -388,7 +390,7 @@ class EventRun:
         if nfr > 1:
             for buf in frames:
                 buf[0] = buf[nfr - 1]
-            pk.clock.n_frames = 1
+            pk.records.clock["n_frames"] = 1
         self.handed = 1
 
     def _hand_on(self, lo: int, hi: int, e0: float) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -24,6 +25,12 @@ STREAM_FRAMES = 256
 STREAM_VALUES = 1 << 16
 
 
+#: Snapshots of the settings and clock records as Python values (one C call to
+#: read; numpy's record attribute access costs a microsecond per field).
+SettingsValues = NamedTuple("SettingsValues", [(n, object) for n in SETTINGS_DTYPE.names])
+ClockValues = NamedTuple("ClockValues", [(n, object) for n in CLOCK_DTYPE.names])
+
+
 @dataclasses.dataclass
 class Packed:
     """The kernel's records for one run, and what the result is built from."""
@@ -41,12 +48,14 @@ class Packed:
     out_of_steps: bool = False  #: stopped by that projection (Status.MAX_STEPS)
 
     @property
-    def settings(self):
-        return self.records.settings.view(np.recarray)[0]
+    def settings(self) -> "SettingsValues":
+        """The settings record's values now (a snapshot: write through ``records.settings``)."""
+        return SettingsValues(*self.records.settings[0].item())
 
     @property
-    def clock(self):
-        return self.records.clock.view(np.recarray)[0]
+    def clock(self) -> "ClockValues":
+        """The clock record's values now (a snapshot: write through ``records.clock``)."""
+        return ClockValues(*self.records.clock[0].item())
 
     @property
     def linear(self) -> bool:
