@@ -233,7 +233,7 @@ class EventBatch:
         # Point q filled a buffer or spent its budget: resume it the ordinary way
         # (drive), on a copy of the records whose grown buffers replace the byte
         # buffer's views there only.
-        pk = dataclasses.replace(self.packed)
+        pk = self.packed.with_records(self.packed.records)
         grow_buffers(pk)
         if stop is None:
             with stop_signals() as stop:
@@ -248,7 +248,7 @@ class EventBatch:
 
     def result(self, out: BatchOutput) -> Result:
         """The full Result of the last point of ``out`` (as simulate_events returns it)."""
-        pk = dataclasses.replace(self.packed, records=out.last_records)
+        pk = self.packed.with_records(out.last_records)
         return build_result(pk, int(out.code[-1]), out.wall_time, self.model, 1.0)
 
 

@@ -61,6 +61,11 @@ class Packed:
     def linear(self) -> bool:
         return self.law == LAW_LINEAR
 
+    def with_records(self, records: EventRecords) -> "Packed":
+        """A copy holding other records (another run of the same packing)."""
+        return Packed(records, self.kernel, self.law, self.coulomb, self.viscous, self.options,
+                      self.ke0, self.projection, self.out_of_steps)
+
     def call(self) -> int:
         """Run the kernel on the records (until it returns a Status or a Pause)."""
         return self.kernel(self.law, self.coulomb, self.viscous, *self.records)

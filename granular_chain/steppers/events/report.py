@@ -36,8 +36,9 @@ def build_result(packed: Packed, code, wall, model: Model, tscale: float, run=No
     if packed.out_of_steps:
         status, message = Status.MAX_STEPS, _out_of_steps_message(packed, t_final, tscale)
     else:
-        status, message = _status(code, packed, model, t_final * tscale, nev, tscale)
-    tol = ledger_tolerance(packed, e0, float(fr_e[nfr - 1, 2] + fr_e[nfr - 1, 3]))
+        status, message = _status(code, packed, clock, model, t_final * tscale, nev, tscale)
+    tol = ledger_tolerance(packed, e0, float(fr_e[nfr - 1, 2] + fr_e[nfr - 1, 3]),
+                           clock, settings)
     events = [Event(float(ev_t[q]), EVENT_KINDS[int(ev_k[q])], int(ev_i[q])) for q in range(nev)]
     info = {"features": feat.describe(), "granules": model.count, "units": model.units,
             "event_stepper": {"taylor_order": int(settings.order),
@@ -98,10 +99,11 @@ def _logged_frames(run, info: dict):
 EXACT_LEDGER_ULPS = 8.0
 
 
-def ledger_tolerance(packed: Packed, e0: float, work: float) -> float:
+def ledger_tolerance(packed: Packed, e0: float, work: float, clock=None, settings=None) -> float:
     """The largest energy-ledger error (relative to the initial energy ``e0``) the
     event stepper promises for the run held in ``packed`` (kernel units);
-    ``work`` is the energy dissipated by friction over the run.
+    ``work`` is the energy dissipated by friction over the run; ``clock``,
+    ``settings``: snapshots of its records already read (read here if None).
 
     * n = 2 (exact modes): ``EXACT_LEDGER_ULPS * eps * (steps + batches + N + 1)``.
     * other n: each step keeps the last two terms of every velocity's and
@@ -115,7 +117,9 @@ def ledger_tolerance(packed: Packed, e0: float, work: float) -> float:
       is off by at most ``2 rtol`` of itself. At worst linearly accumulated:
       ``2 [(steps + 2 batches + 1) (max(2, n) rtol + 2 atol / V) + 2 rtol work / e0]``.
     """
-    clock, settings, chain = packed.clock, packed.settings, packed.records.model
+    clock = packed.clock if clock is None else clock
+    settings = packed.settings if settings is None else settings
+    chain = packed.records.model
     steps = int(clock.steps)
     batches = int(clock.batches)
     N = chain.mass.size
@@ -155,9 +159,9 @@ def _out_of_steps_message(packed: Packed, t: float, tscale: float) -> str:
     return msg
 
 
-def _status(code: int, packed: Packed, model: Model, t: float, nev: int, tscale: float):
+def _status(code: int, packed: Packed, clock, model: Model, t: float, nev: int, tscale: float):
     """Status and message of a run the kernel ended with ``code`` at time t (scene units)."""
-    options, clock = packed.options, packed.clock
+    options = packed.options
     steps = int(clock.steps)
     if code == Status.T_END:
         msg = f"reached t_end = {t:.12g} after {nev} events and {steps} Taylor steps"
