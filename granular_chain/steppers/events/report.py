@@ -47,7 +47,7 @@ def build_result(packed: Packed, code, wall, model: Model, tscale: float, run=No
                               "event_batches": int(clock.batches),
                               "ledger_tolerance": tol}}
     if model.units == "physical":
-        from ..units import scaled_parameters
+        from ...units import scaled_parameters
         info["scaled"] = scaled_parameters(model)
     if run is None:
         energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
