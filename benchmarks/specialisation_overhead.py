@@ -335,10 +335,10 @@ def breakdown(kw, repeat=300):
 def dispatch_overhead(repeat=2000):
     """collide() and its kernel time per call, with the engine's lookup and the prototype."""
     import granular_chain.simulate  # noqa: F401
-    import granular_chain.steppers.events  # noqa: F401
+    import granular_chain.steppers.events.pack  # noqa: F401
     # the package re-exports the function simulate under the module's name
     gsim = sys.modules["granular_chain.simulate"]
-    gev = sys.modules["granular_chain.steppers.events"]
+    gev = sys.modules["granular_chain.steppers.events.pack"]  # (where the event kernel is looked up)
     from granular_chain.two_granules import collide
     cases = {"verlet n=2 eta=(0,0.3) dt=0.1": dict(n=2.0, eta=(0.0, 0.3), stepper="verlet", dt=0.1),
              "event n=2 eta=(0,0.3)": dict(n=2.0, eta=(0.0, 0.3), stepper="event"),

@@ -108,13 +108,13 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     every = scene.output.checkpoint_every
     try:
         if scene.run.stepper == "event":
-            from .steppers.events import simulate_events
+            from .steppers.events import event_options, simulate_events
 
             def synced(state):  # the writers have every frame so far before the state
                 log.sync()
                 checkpoint(state)
 
-            result = simulate_events(scene, model, log=log, resume=resume,
+            result = simulate_events(event_options(scene), model, log=log, resume=resume,
                                      checkpoint=synced if checkpoint else None,
                                      checkpoint_every=every or 0)
         else:

@@ -16,11 +16,14 @@ A scaled scene (m = 1, k = 1, v0 = 1) has A = B = 1.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import NamedTuple, Optional
 
 import numpy as np
 
-__all__ = ["scales", "scaled_parameters", "scaled_coulomb", "scaled_viscous"]
+__all__ = ["scales", "scaled_parameters", "scaled_coulomb", "scaled_viscous", "speed_scale",
+           "internal_scales", "scaled_model", "UnitFactors", "unit_factors"]
 
 
 def scales(m: float, k: float, n: float, v0: float) -> tuple[float, float]:
@@ -54,6 +57,96 @@ def scaled_parameters(model) -> dict:
         "eta_scaled": [scaled_coulomb(float(e), m, v0, A) for e in model.eta],
         "gamma_scaled": [scaled_viscous(float(g), m, v0, A) for g in model.gamma],
     }
+
+
+def speed_scale(model) -> float:
+    """Speed scale of a scene: the larger of the speed a granule of mass m_0 would
+    have with the most energetic granule's kinetic energy and the one it would have
+    with the initial elastic energy (a precompressed scene starting at rest or at a
+    tiny speed is scaled by the motion it will have)."""
+    M = float(model.mass[0])
+    V = float(np.max(np.abs(model.v0) * np.sqrt(model.mass / M)))
+    pe0 = model.energies(np.zeros(model.count), model.v0)[1]
+    return max(V, math.sqrt(2.0 * pe0 / M))
+
+
+def internal_scales(model) -> Optional[tuple[float, float, float]]:
+    """Mass, length and time scales (M, A, B) in which a stepper with absolute
+    tolerances (the event stepper) runs a scene, or None to run it as given.
+
+    Appendix A's scales with the reference mass m_0, the first contact's (or
+    wall's) force coefficient K0 and exponent n0, and the speed scale V
+    (:func:`speed_scale`), written as ``A = (M/K0)^(1/n0) V^(2/n0)`` so that no
+    factor underflows for tiny speeds. A drag or a kinetic friction stopping
+    the motion far faster than the collision (tiny speeds make B huge) sets the
+    time scale instead: a series in units of B would overflow. None when the
+    scene is already scaled, nothing sets a scale, or the scales themselves
+    would lose their digits (speeds near 1e-300: such a scene hardly moves).
+    """
+    M = float(model.mass[0])
+    present_k = [float(k) for k in model.k]
+    present_n = [float(n) for n in model.n]
+    w = model.walls
+    if model.features.left_wall:
+        present_k.append(float(w[1]))
+        present_n.append(float(w[2]))
+    if model.features.right_wall:
+        present_k.append(float(w[4]))
+        present_n.append(float(w[5]))
+    if not present_k:
+        return None
+    K0, n0 = present_k[0], present_n[0]
+    V = speed_scale(model)
+    if V == 0.0:
+        return None
+    A = (M / K0) ** (1.0 / n0) * V ** (2.0 / n0)
+    B = (M / K0) ** (1.0 / n0) * V ** (2.0 / n0 - 1.0)
+    rate = max(float(np.max(model.gamma * model.inv_mass)) * B,
+               float(np.max(model.eta * model.inv_mass)) * B / V)
+    if rate > 1e3:
+        B /= rate
+        A /= rate
+    if M == 1.0 and A == 1.0 and B == 1.0:
+        return None
+    # (short-circuit: a rate that overflowed to inf leaves B = 0, and A / B must not be formed)
+    if not (1e-100 < A < 1e100 and 1e-100 < B < 1e100 and 1e-100 < A / B < 1e100):
+        return None
+    return M, A, B
+
+
+def scaled_model(model, M: float, A: float, B: float):
+    """The Model in units of mass M, length A and time B.
+
+    Force coefficients ``k A^n / (F A)`` with ``F = M A / B^2`` the force scale are
+    written as ``k A^(n-2) B^2 / M`` and ``1/F`` as ``(B/M)(B/A)``, so that no factor
+    underflows for tiny speeds (A ~ 1e-300 at v = 1e-300).
+    """
+    w = model.walls.copy()
+    w[0] /= A
+    w[3] /= A
+    w[1] = w[1] * A ** (w[2] - 2.0) * B * B / M
+    w[4] = w[4] * A ** (w[5] - 2.0) * B * B / M
+    inv_F = (B / M) * (B / A)
+    return dataclasses.replace(
+        model, mass=model.mass / M, inv_mass=model.inv_mass * M, radius=model.radius / A,
+        x0=model.x0 / A, v0=model.v0 * (B / A), d0=model.d0 / A,
+        k=model.k * A ** (model.n - 2.0) * (B * B / M), walls=w, eta=model.eta * inv_F,
+        eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M))
+
+
+class UnitFactors(NamedTuple):
+    """Factors from internal units (mass M, length A, time B) to the scene's."""
+
+    t: float  #: time, B
+    x: float  #: length, A
+    v: float  #: speed, A / B
+    f: float  #: force, M A / B^2
+    e: float  #: energy, M A^2 / B^2
+
+
+def unit_factors(M: float, A: float, B: float) -> UnitFactors:
+    """The :class:`UnitFactors` of the internal units (M, A, B)."""
+    return UnitFactors(B, A, A / B, M * A / (B * B), M * A * A / (B * B))
 
 
 # ----------------------------------------------------------------------------

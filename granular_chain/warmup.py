@@ -20,7 +20,7 @@ from pathlib import Path
 __all__ = ["kernels_cached", "prepare_kernels", "compile_notice", "NOTICE"]
 
 NOTICE = "compiling kernels, first run only (later runs reuse them) ..."
-_KERNEL_FILES = {"verlet": "kernel.*_chunk-*.nbi", "event": "events_kernel.*.nbi"}
+_KERNEL_FILES = {"verlet": "kernel.*_chunk-*.nbi", "event": "kernel.run_events-*.nbi"}
 
 
 def kernels_cached(stepper: str) -> bool:

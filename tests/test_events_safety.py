@@ -211,7 +211,7 @@ def test_signal_stops_collision_map_within_a_second():
 
 def test_chunked_run_is_bitwise_the_one_call_run(monkeypatch):
     # The kernel returning every pass (budget 1) gives the same run bit for bit.
-    from granular_chain.steppers import events as E
+    from granular_chain.steppers.events import driver as E
     scenes = [_chain(12, n=2.5, gap=0.05, eta=0.02, gamma=0.05), _chain(6, eta=0.01),
               _chain(8, n=2.0, gap=0.05, eta=0.02)]
     whole = [simulate(s) for s in scenes]

@@ -188,7 +188,7 @@ def test_resumed_run_is_bit_identical_to_the_uninterrupted_one(name, tmp_path):
     b, b_sink, states = _checkpointed(scene, model, max(a.steps // 4, 1))
     _same_end(b, a)
     _same_frames(b_sink.frames, a)
-    steps = [int(s["k_ist"][0]) for s in states]  # (ist[I_STEPS])
+    steps = [int(s["steps"]) for s in states]
     assert len(states) >= 3 and steps == sorted(steps) and not any(s["interrupted"] for s in states)
     state = _npz(states[len(states) // 2], tmp_path / "state.npz")
     k0 = int(state["frames"])
@@ -255,7 +255,7 @@ def test_run_stopped_by_sigint_resumes_from_its_checkpoint(tmp_path):
     assert status == "INTERRUPTED" and float(t_stop) < 30.0
     with np.load(tmp_path / "interrupted.npz") as data:
         state = {k: data[k] for k in data.files}
-    assert state["interrupted"] and int(state["k_ist"][0]) >= 50  # (steps)
+    assert state["interrupted"] and int(state["steps"]) >= 50
     a_sink = Collect()
     a = simulate_events(scene, model, FrameLog([a_sink]))
     sink = Collect()

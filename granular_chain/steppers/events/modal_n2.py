@@ -44,25 +44,50 @@ C = cos(omega tau), S = sin(omega tau)/omega (D > 0); cosh, sinh/kappa (D < 0);
 import math
 
 import numba
+import numpy as np
 
 PI_HI = 3.141592653589793
 PI_LO = 1.2246467991473532e-16
 SPLIT = 134217729.0  # 2^27 + 1
 
-# Parameter slots of the mode record ``p`` (float64[24]).
-(P_C, P_K, P_B, P_Y0, P_W0, P_DH, P_DL, P_OH, P_OL, P_V0, P_FM, P_CASE, P_A0, P_A1,
- P_D0, P_VI0, P_VI1, P_ETAS, P_KC, P_S0, P_S1, P_CM, P_LIM) = range(23)
-NPAR = 24
+#: The mode record (one element of a structured array; the kernel keeps it in
+#: ``Workspace.modal``). All fields float64, the sliding signs included, so the
+#: arithmetic on them is that of plain doubles.
+MODE_DTYPE = np.dtype([
+    ("c", np.float64),            # drag rate gamma/m of the relative motion (1/time)
+    ("k_rate", np.float64),       # K: k (1/m0 + 1/m1), or k/m_i with one granule stuck
+    ("drive", np.float64),        # b: constant forcing of delta'' (Coulomb forces / masses)
+    ("y0", np.float64),           # delta - b/K at the mode's start
+    ("w0", np.float64),           # delta' at the mode's start
+    ("d_hi", np.float64),         # D = K - c^2/4, double-double high part
+    ("d_lo", np.float64),         #   and low part
+    ("om_hi", np.float64),        # omega = sqrt(|D|), double-double high part
+    ("om_lo", np.float64),        #   and low part
+    ("v_cm0", np.float64),        # centre-of-mass velocity at the start (both moving)
+    ("f_cm", np.float64),         # net friction force / total mass (both moving)
+    ("case", np.float64),         # 0 both granules move, 1 only granule 0, 2 only granule 1
+    ("share0", np.float64),       # m1 / M: granule 0's share of the relative motion
+    ("share1", np.float64),       # m0 / M
+    ("delta0", np.float64),       # overlap at the start
+    ("v0_init", np.float64),      # velocities at the start (0 for a stuck granule)
+    ("v1_init", np.float64),
+    ("eta_s_other", np.float64),  # static threshold of the stuck granule (one moving)
+    ("k_contact", np.float64),    # the contact's force coefficient k
+    ("s0", np.float64),           # friction modes (2 frictionless, +-1 sliding, 0 stuck)
+    ("s1", np.float64),
+    ("m_total", np.float64),      # M = m0 + m1
+    ("limit", np.float64),        # overlap at which the centres meet
+], align=True)
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_sum(a, b):
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_prod(a, b):
     """a*b = p + e exactly (Dekker; no FMA needed)."""
     p = a * b
@@ -76,13 +101,32 @@ def two_prod(a, b):
     return p, e
 
 
-@numba.njit(cache=True, error_model="numpy")
-def setup(p, m0, m1, g0, g1, kc, eta0, eta1, s0, s1, d0, v0, v1, eta_s_other):
-    """Fill the mode record. s_i: 2 frictionless/moving, +-1 sliding, 0 stuck.
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def setup(p, coulomb, viscous, model, state):
+    """Fill the mode record ``p`` of granules 0, 1 and their closed contact 1.
 
-    Returns False when the mode is not covered (both stuck, or both moving
-    with unequal drag rates: those stay with the Taylor series).
+    ``model`` (:class:`~.records.ChainArrays`) and ``state``
+    (:class:`~.records.MotionState`) are the kernel's; friction a feature the
+    scene lacks (``coulomb``, ``viscous`` false) is left out. Returns False
+    when the mode is not covered (overlap negative, both granules stuck, or
+    both moving with unequal drag rates: those stay with the Taylor series).
     """
+    overlap = state.overlap
+    if overlap[1] < 0.0:
+        return False
+    mass, eta, v, slide = model.mass, model.eta, state.v, state.slide
+    m0, m1, k_contact, d0, v0, v1 = mass[0], mass[1], model.stiffness[1], overlap[1], v[0], v[1]
+    g0 = model.gamma[0] if viscous else 0.0
+    g1 = model.gamma[1] if viscous else 0.0
+    eta0 = eta[0] if coulomb else 0.0
+    eta1 = eta[1] if coulomb else 0.0
+    s0 = slide[0]
+    s1 = slide[1]
+    eta_s_other = 0.0
+    if s0 != 0 and s1 == 0:
+        eta_s_other = model.eta_static[1]
+    elif s0 == 0 and s1 != 0:
+        eta_s_other = model.eta_static[0]
     mv0 = s0 != 0
     mv1 = s1 != 0
     f0 = -eta0 * s0 if (s0 == 1 or s0 == -1) else 0.0
@@ -91,77 +135,77 @@ def setup(p, m0, m1, g0, g1, kc, eta0, eta1, s0, s1, d0, v0, v1, eta_s_other):
         c = g0 / m0
         if g1 / m1 != c:
             return False
-        K = kc * (1.0 / m0 + 1.0 / m1)
+        K = k_contact * (1.0 / m0 + 1.0 / m1)
         b = f0 / m0 - f1 / m1
         w0 = v0 - v1
         M = m0 + m1
-        p[P_CASE] = 0.0
-        p[P_V0] = (m0 * v0 + m1 * v1) / M
-        p[P_FM] = (f0 + f1) / M
-        p[P_A0] = m1 / M
-        p[P_A1] = m0 / M
-        p[P_CM] = M
+        p.case = 0.0
+        p.v_cm0 = (m0 * v0 + m1 * v1) / M
+        p.f_cm = (f0 + f1) / M
+        p.share0 = m1 / M
+        p.share1 = m0 / M
+        p.m_total = M
     elif mv0:
         c = g0 / m0
-        K = kc / m0
+        K = k_contact / m0
         b = f0 / m0
         w0 = v0
-        p[P_CASE] = 1.0
+        p.case = 1.0
     elif mv1:
         c = g1 / m1
-        K = kc / m1
+        K = k_contact / m1
         b = -f1 / m1
         w0 = -v1
-        p[P_CASE] = 2.0
+        p.case = 2.0
     else:
         return False
-    p[P_C] = c
-    p[P_K] = K
-    p[P_B] = b
-    p[P_Y0] = d0 - b / K
-    p[P_W0] = w0
-    p[P_D0] = d0
-    p[P_VI0] = v0 if mv0 else 0.0
-    p[P_VI1] = v1 if mv1 else 0.0
-    p[P_ETAS] = eta_s_other
-    p[P_KC] = kc
-    p[P_S0] = s0
-    p[P_S1] = s1
+    p.c = c
+    p.k_rate = K
+    p.drive = b
+    p.y0 = d0 - b / K
+    p.w0 = w0
+    p.delta0 = d0
+    p.v0_init = v0 if mv0 else 0.0
+    p.v1_init = v1 if mv1 else 0.0
+    p.eta_s_other = eta_s_other
+    p.k_contact = k_contact
+    p.s0 = s0
+    p.s1 = s1
     # D = K - c^2/4 with its low part (exact product, then TwoSum).
     cp, ce = two_prod(c, c)
-    dh, dl = two_sum(K, -0.25 * cp)
-    dl -= 0.25 * ce
-    dh, dl = two_sum(dh, dl)
-    p[P_DH] = dh
-    p[P_DL] = dl
+    dh, d_lo = two_sum(K, -0.25 * cp)
+    d_lo -= 0.25 * ce
+    dh, d_lo = two_sum(dh, d_lo)
+    p.d_hi = dh
+    p.d_lo = d_lo
     if dh > 0.0:
         oh = math.sqrt(dh)
         sp, se = two_prod(oh, oh)
-        ol = ((dh - sp) - se + dl) / (2.0 * oh)
+        ol = ((dh - sp) - se + d_lo) / (2.0 * oh)
     elif dh < 0.0:
         oh = math.sqrt(-dh)
         sp, se = two_prod(oh, oh)
-        ol = ((-dh - sp) - se - dl) / (2.0 * oh)
+        ol = ((-dh - sp) - se - d_lo) / (2.0 * oh)
     else:
         oh = 0.0
         ol = 0.0
-    p[P_OH] = oh
-    p[P_OL] = ol
+    p.om_hi = oh
+    p.om_lo = ol
     # c^2 overflows for c > ~1e154: the closed form is then not evaluable
     return math.isfinite(dh) and math.isfinite(oh)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _csa(p, th, tl):
     """e^(-c tau/2) C(tau), e^(-c tau/2) S(tau), e^(-c tau) for tau = th + tl."""
-    c = p[P_C]
+    c = p.c
     cp, ce = two_prod(c, th)
     corr = ce + c * tl
     A = math.exp(-0.5 * cp) * (1.0 - 0.5 * corr)
     E = math.exp(-cp) * (1.0 - corr)
-    dh = p[P_DH]
-    oh = p[P_OH]
-    ol = p[P_OL]
+    dh = p.d_hi
+    oh = p.om_hi
+    ol = p.om_lo
     if dh > 0.0:
         xh, xe = two_prod(oh, th)
         xl = xe + oh * tl + ol * th
@@ -178,7 +222,7 @@ def _csa(p, th, tl):
         if x < 20.0:
             return A * math.cosh(x), A * math.sinh(x) / kap, E
         half = 0.5 * c
-        r1 = -p[P_K] / (kap + half)  # kappa - c/2 without cancellation
+        r1 = -p.k_rate / (kap + half)  # kappa - c/2 without cancellation
         r2 = -(kap + half)
         e1 = math.exp(r1 * tau)
         e2 = math.exp(r2 * tau)
@@ -186,7 +230,7 @@ def _csa(p, th, tl):
     return A, A * (th + tl), E
 
 
-@numba.njit(inline="always", cache=True, error_model="numpy")
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def slow_rate(K, half_c, kap):
     """Slow decay rate of an overdamped mode, c/2 - sqrt(c^2/4 - K), written as
     K / (c/2 + kap) (kap = sqrt(c^2/4 - K)): the difference form cancels to nothing
@@ -194,7 +238,7 @@ def slow_rate(K, half_c, kap):
     return K / (half_c + kap)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def state(p, th, tl):
     """delta, w = delta', v0, v1, du0, du1 at tau = th + tl from the mode start.
 
@@ -202,29 +246,29 @@ def state(p, th, tl):
     would round it), so event functions agree with the state settle saw.
     """
     if th == 0.0 and tl == 0.0:
-        return p[P_D0], p[P_W0], p[P_VI0], p[P_VI1], 0.0, 0.0
-    c = p[P_C]
-    K = p[P_K]
-    y0 = p[P_Y0]
-    w0 = p[P_W0]
+        return p.delta0, p.w0, p.v0_init, p.v1_init, 0.0, 0.0
+    c = p.c
+    K = p.k_rate
+    y0 = p.y0
+    w0 = p.w0
     B = w0 + 0.5 * c * y0
     tau = th + tl
-    case = p[P_CASE]
-    if tau * (math.sqrt(K) + 0.5 * c + abs(p[P_OH])) < 0.5:
+    case = p.case
+    if tau * (math.sqrt(K) + 0.5 * c + abs(p.om_hi)) < 0.5:
         # Early in the mode: increments from the initial state with expm1 and
         # 2 sin^2(x/2) (no 1 - 1 cancellation), so a granule that has just
         # stopped or slipped at a near-balanced force gets the sign of its tiny
         # velocity right (the direct form rounds it to +-1e-17).
         A = math.exp(-0.5 * c * tau)
         Am1 = math.expm1(-0.5 * c * tau)
-        dh = p[P_DH]
+        dh = p.d_hi
         if dh > 0.0:
-            om = p[P_OH] + p[P_OL]
+            om = p.om_hi + p.om_lo
             sh = math.sin(0.5 * om * tau)
             cm1 = -2.0 * sh * sh
             S = math.sin(om * tau) / om
         elif dh < 0.0:
-            kap = p[P_OH] + p[P_OL]
+            kap = p.om_hi + p.om_lo
             sh = math.sinh(0.5 * kap * tau)
             cm1 = 2.0 * sh * sh
             S = math.sinh(kap * tau) / kap
@@ -235,7 +279,7 @@ def state(p, th, tl):
         AS = A * S
         dy = y0 * ACm1 + B * AS
         dw = w0 * ACm1 - (K * y0 + 0.5 * c * w0) * AS
-        delta = p[P_D0] + dy
+        delta = p.delta0 + dy
         w = w0 + dw
         if case == 0.0:
             x = c * tau
@@ -246,15 +290,15 @@ def state(p, th, tl):
             else:
                 ph1 = -math.expm1(-x) / c
                 ph2 = (tau - ph1) / c
-            dV = p[P_V0] * math.expm1(-x) + p[P_FM] * ph1
-            dU = p[P_V0] * ph1 + p[P_FM] * ph2
-            return (delta, w, p[P_VI0] + dV + p[P_A0] * dw, p[P_VI1] + dV - p[P_A1] * dw,
-                    dU + p[P_A0] * dy, dU - p[P_A1] * dy)
+            dV = p.v_cm0 * math.expm1(-x) + p.f_cm * ph1
+            dU = p.v_cm0 * ph1 + p.f_cm * ph2
+            return (delta, w, p.v0_init + dV + p.share0 * dw, p.v1_init + dV - p.share1 * dw,
+                    dU + p.share0 * dy, dU - p.share1 * dy)
         if case == 1.0:
             return delta, w, w, 0.0, dy, 0.0
         return delta, w, 0.0, -w, 0.0, -dy
-    dh = p[P_DH]
-    kap = p[P_OH] + p[P_OL]
+    dh = p.d_hi
+    kap = p.om_hi + p.om_lo
     if dh < 0.0 and kap > 0.25 * c:
         # Strongly overdamped: y = al e^(r1 tau) + be e^(r2 tau) on the two real
         # rates (slow r1 = -K/(kap + c/2) without cancellation, fast r2 =
@@ -277,8 +321,8 @@ def state(p, th, tl):
         AC, AS, E = _csa(p, th, tl)
         y = y0 * AC + B * AS
         w = w0 * AC - (K * y0 + 0.5 * c * w0) * AS
-    delta = y + p[P_B] / K
-    dd = delta - p[P_D0]
+    delta = y + p.drive / K
+    dd = delta - p.delta0
     if case == 0.0:
         # phi1 = (1 - e^(-c tau))/c, phi2 = (tau - phi1)/c, both -> tau, tau^2/2 at c -> 0
         if c * tau < 1e-3:
@@ -289,34 +333,34 @@ def state(p, th, tl):
         else:
             ph1 = -math.expm1(-c * tau) / c
             ph2 = (tau - ph1) / c
-        V = p[P_V0] * E + p[P_FM] * ph1
-        dU = p[P_V0] * ph1 + p[P_FM] * ph2
-        return delta, w, V + p[P_A0] * w, V - p[P_A1] * w, dU + p[P_A0] * dd, dU - p[P_A1] * dd
+        V = p.v_cm0 * E + p.f_cm * ph1
+        dU = p.v_cm0 * ph1 + p.f_cm * ph2
+        return delta, w, V + p.share0 * w, V - p.share1 * w, dU + p.share0 * dd, dU - p.share1 * dd
     if case == 1.0:
         return delta, w, w, 0.0, dd, 0.0
     return delta, w, 0.0, -w, 0.0, -dd
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def g_event2(p, kind, th, tl):
     """Event function and its time derivative (g < 0 on the valid side):
     0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip of the stuck
-    granule (k delta > eta_s), 4 overlap reaching P_LIM (the centres meet)."""
+    granule (k delta > eta_s), 4 overlap reaching ``limit`` (the centres meet)."""
     delta, w, v0, v1, du0, du1 = state(p, th, tl)
-    c = p[P_C]
-    wd = p[P_B] - p[P_K] * delta - c * w  # delta''
+    c = p.c
+    wd = p.drive - p.k_rate * delta - c * w  # delta''
     if kind == 0:
         return -delta, -w
     if kind == 4:
-        return delta - p[P_LIM], w
+        return delta - p.limit, w
     if kind == 3:
-        return p[P_KC] * delta - p[P_ETAS], p[P_KC] * w
-    case = p[P_CASE]
+        return p.k_contact * delta - p.eta_s_other, p.k_contact * w
+    case = p.case
     if case == 0.0:
-        V = v0 - p[P_A0] * w
-        Vd = -c * V + p[P_FM]
-        a0 = Vd + p[P_A0] * wd
-        a1 = Vd - p[P_A1] * wd
+        V = v0 - p.share0 * w
+        Vd = -c * V + p.f_cm
+        a0 = Vd + p.share0 * wd
+        a1 = Vd - p.share1 * wd
     elif case == 1.0:
         a0 = wd
         a1 = 0.0
@@ -324,17 +368,17 @@ def g_event2(p, kind, th, tl):
         a0 = 0.0
         a1 = -wd
     if kind == 1:
-        return -p[P_S0] * v0, -p[P_S0] * a0
-    return -p[P_S1] * v1, -p[P_S1] * a1
+        return -p.s0 * v0, -p.s0 * a0
+    return -p.s1 * v1, -p.s1 * a1
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def g_event(p, kind, th, tl):
     g, gd = g_event2(p, kind, th, tl)
     return g
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _root_in_bracket(p, kind, lo, hi):
     """Root of g on [lo, hi] with g(lo) < 0 <= g(hi), to an ulp, as (th, tl).
 
@@ -372,7 +416,7 @@ def _root_in_bracket(p, kind, lo, hi):
     return th, tl
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _max_of(p, kind, lo, hi):
     """Interior maximum of g on [lo, hi] with g'(lo) > 0 > g'(hi) (bisection on g')."""
     for _ in range(200):
@@ -387,53 +431,53 @@ def _max_of(p, kind, lo, hi):
     return lo
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def sample_step(p):
     """Sampling interval: a quarter of the fastest time scale of the mode."""
-    rate = max(math.sqrt(p[P_K]), 0.5 * p[P_C], abs(p[P_OH]))
+    rate = max(math.sqrt(p.k_rate), 0.5 * p.c, abs(p.om_hi))
     return 0.25 / rate
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def slow_sample_step(p):
     """Largest sampling interval: sample_step, or a quarter of the slow time
     scale 1/lambda_slow of an overdamped mode (D <= 0), lambda_slow =
     K / (c/2 + sqrt(c^2/4 - K)) (the stable form of c/2 - sqrt(c^2/4 - K))."""
     fast = sample_step(p)
-    if p[P_DH] > 0.0:
+    if p.d_hi > 0.0:
         return fast
-    return max(fast, 0.25 / slow_rate(p[P_K], 0.5 * p[P_C], abs(p[P_OH])))
+    return max(fast, 0.25 / slow_rate(p.k_rate, 0.5 * p.c, abs(p.om_hi)))
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def overlap_bound(p):
     """Upper bound on delta over the whole mode (inf when there is none).
 
     y = delta - b/K obeys y'' + c y' + K y = 0 with c >= 0, so K y^2 + w^2
     never grows: delta <= b/K + sqrt(y0^2 + w0^2/K) at every time of the mode.
     """
-    K = p[P_K]
+    K = p.k_rate
     if not (K > 0.0):
         return math.inf
-    y0 = p[P_Y0]
-    w0 = p[P_W0]
-    return p[P_B] / K + math.sqrt(y0 * y0 + w0 * w0 / K)
+    y0 = p.y0
+    w0 = p.w0
+    return p.drive / K + math.sqrt(y0 * y0 + w0 * w0 / K)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def open_root_analytic(p, h):
     """First tau in (0, h] with y(tau) = 0 when b = 0 (delta = y): closed form.
 
     Returns the root as a double-double (th, tl) polished by Newton steps on the
     accurate evaluator, or (inf, 0) when there is none in (0, h].
     """
-    y0 = p[P_Y0]
-    c = p[P_C]
-    B = p[P_W0] + 0.5 * c * y0
-    dh = p[P_DH]
+    y0 = p.y0
+    c = p.c
+    B = p.w0 + 0.5 * c * y0
+    dh = p.d_hi
     # y/A = y0 C + B S: a zero where y0 C + B S = 0.
     if dh > 0.0:
-        om = p[P_OH] + p[P_OL]
+        om = p.om_hi + p.om_lo
         # angle theta in (0, pi] with y0 cos + (B/om) sin = 0
         if y0 == 0.0:
             if B > 0.0:
@@ -448,12 +492,12 @@ def open_root_analytic(p, h):
                 ang += math.pi
             th_h, th_l = ang, 0.0
         # tau = theta / omega in double-double
-        q = th_h / p[P_OH]
-        ph, pe = two_prod(q, p[P_OH])
-        r = ((th_h - ph) - pe + th_l - q * p[P_OL]) / p[P_OH]
+        q = th_h / p.om_hi
+        ph, pe = two_prod(q, p.om_hi)
+        r = ((th_h - ph) - pe + th_l - q * p.om_lo) / p.om_hi
         th, tl = two_sum(q, r)
     elif dh < 0.0:
-        kap = p[P_OH] + p[P_OL]
+        kap = p.om_hi + p.om_lo
         if B == 0.0:
             return math.inf, 0.0
         z = -kap * y0 / B
@@ -474,18 +518,18 @@ def open_root_analytic(p, h):
     return th, tl
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _acc_roundoff(p):
     """Roundoff bound of a granule's acceleration at the start of the mode:
     1e-12 times the terms that cancel in it (drive, spring, drag, shared force)."""
-    c = p[P_C]
-    s = abs(p[P_B]) + p[P_K] * abs(p[P_D0]) + c * abs(p[P_W0])
-    if p[P_CASE] == 0.0:
-        s += abs(p[P_FM]) + c * abs(p[P_V0])
+    c = p.c
+    s = abs(p.drive) + p.k_rate * abs(p.delta0) + c * abs(p.w0)
+    if p.case == 0.0:
+        s += abs(p.f_cm) + c * abs(p.v_cm0)
     return 1e-12 * s
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def first_root(p, kind, lo, hi, nsamp):
     """First tau in [lo, hi] where g_event(kind) reaches 0 from below, as (th, tl).
 

@@ -1,0 +1,523 @@
+"""The event stepper's Python driver: units, kernel calls in chunks, frames, checkpoints.
+
+``simulate_events(scene, model) -> Result`` is what :func:`granular_chain.simulate`
+calls for ``run.stepper: event``. It reads the scene once
+(:func:`~.options.event_options`), runs the Model in its own scaled units
+(:func:`granular_chain.units.internal_scales`), packs the kernel's records
+(:mod:`.pack`), calls the compiled loop (:func:`~.kernel.run_events`) until it
+returns a :class:`~granular_chain.codes.Status`, growing the buffers on
+``Pause.LOG_FULL`` and checking for signals, handing on frames and taking
+checkpoints on ``Pause.CHUNK_DONE`` (:class:`EventRun`), and builds the
+:class:`~granular_chain.result.Result` (:mod:`.report`).
+
+The event log uses the model's numbering (contact i between granules i and
+i+1, -1 the left wall, N-1 the right wall).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ...codes import Pause, Status
+from ...frames import Frame, FrameLog
+from ...interrupts import CHUNK_SECONDS, stop_signals
+from ...ledger import ledger_verdict
+from ...model import Model
+from ...result import EnergyLedger, Event, Result
+from ...units import internal_scales, scaled_model, speed_scale, unit_factors
+from .options import EventOptions, event_options
+from .output import record_final_frame
+from .pack import Packed, pack_run
+from .report import build_result
+
+__all__ = ["simulate_events", "checkpoint_state", "EventRun", "check_exponents",
+           "MIN_EXPONENT", "next_budget"]
+
+#: Smallest contact exponent the event stepper accepts. Below it the contact force
+#: k delta^(n-1) has a derivative growing fast as delta -> 0 and the ledger error
+#: grows far beyond the rtol-based promise (measured, two spheres, ledger error /
+#: promise at rtol 1e-12: n = 1.01: 2.4e-3 / 3.2e-10; 1.5: 3.5e-10 / 3.1e-10;
+#: 1.6: 0.1 of it; 1.75: 0.001 of it; docs/events.md). Verlet takes every n > 1.
+MIN_EXPONENT = 1.75
+#: Taylor steps before the pace of a run is judged (its start and first events
+#: can take short steps that later ones do not).
+PACE_MIN_STEPS = 10_000
+#: Main-loop passes of the first kernel call; later calls are sized from the
+#: measured wall time (:func:`next_budget`).
+FIRST_BUDGET = 64
+#: Version of the checkpoint dictionary (:func:`checkpoint_state`).
+CHECKPOINT_FORMAT = 2
+#: Record groups of the kernel saved in a checkpoint (the buffers are saved live rows only).
+_SAVED_GROUPS = ("state", "work")
+
+
+def check_exponents(model: Model) -> None:
+    """Refuse a scene whose contacts (walls included) have an exponent below
+    MIN_EXPONENT (SimulationError naming contacts.exponent)."""
+    n = [float(x) for x in model.n]
+    w = model.walls
+    if model.features.left_wall:
+        n.append(float(w[2]))
+    if model.features.right_wall:
+        n.append(float(w[5]))
+    low = [x for x in n if x < MIN_EXPONENT]
+    if low:
+        from ...simulate import SimulationError
+        raise SimulationError(
+            f"contacts.exponent: the event stepper accepts exponents n >= {MIN_EXPONENT} "
+            f"(n = 2 exactly, others to run.rtol); got n = {min(low):g}, for which its energy "
+            f"ledger misses the promised tolerance (docs/events.md); use run.stepper: verlet")
+
+
+def unscaled_atol(model: Model, atol: float) -> float:
+    """atol for a scene run in its own units (:func:`~granular_chain.units.internal_scales`
+    returned None).
+
+    atol is absolute, meant for scaled units (speeds ~ 1). A scene whose scales are
+    too extreme to apply (speeds of 1e-94 against a friction stopping them at once)
+    runs as given, where an atol of 1e-14 exceeded every velocity and overlap: the
+    step control saw nothing, took whole-run steps, and the series of a decaying
+    velocity grew its energy 2.5e5-fold (found by hypothesis). It is scaled by the
+    speed scale when that is below 1."""
+    V = speed_scale(model)
+    return atol * V if 0.0 < V < 1.0 else atol
+
+
+def simulate_events(options, model: Model, log: FrameLog | None = None, *, resume=None,
+                    checkpoint=None, checkpoint_every: int = 0) -> Result:
+    """Run the scene with the event stepper in its own scaled units
+    (:func:`granular_chain.units.internal_scales`).
+
+    Parameters
+    ----------
+    options : EventOptions or Scene
+        The run's options (:func:`~.options.event_options` of the scene; a Scene
+        is read with it here).
+    model : Model
+        The scene's Model (:func:`granular_chain.simulate.preflight`), in the
+        scene's units.
+    log : FrameLog, optional
+        Where the frames go as the run goes (the scene's units; ``Frame.step`` is
+        the frame's number): handed on between kernel calls, so memory does not
+        grow with the number of frames when ``log.keep`` is false. Closed with the
+        Result at the end. Without it (and without ``resume`` and ``checkpoint``)
+        the frames stay in the kernel's buffers and the Result holds them all.
+    resume : dict, optional
+        A :func:`checkpoint_state` of a run of the same scene: the run continues
+        from it; the frames handed on and the end state are those the run would
+        have had without the interruption, bit for bit. The Result's frames are
+        those handed on after the resume (with ``log.keep`` false: the first and
+        latest of the whole run, the checkpoint holds the first).
+    checkpoint : callable, optional
+        ``checkpoint(state)`` with a :func:`checkpoint_state` dictionary, every
+        ``checkpoint_every`` Taylor steps (at the kernel's next return after
+        them) and when a signal interrupts the run (before its final frame).
+    checkpoint_every : int
+        Taylor steps between checkpoints (0: only at an interruption).
+    """
+    check_exponents(model)
+    if not isinstance(options, EventOptions):
+        options = event_options(options)
+    scales = internal_scales(model)
+    streamed = log is not None or resume is not None or checkpoint is not None
+    if streamed and log is None:
+        log = FrameLog()
+    kw = dict(log=log, resume=resume, checkpoint=checkpoint, checkpoint_every=checkpoint_every)
+    if scales is None:
+        atol = unscaled_atol(model, options.atol)
+        if atol != options.atol:
+            options = options._replace(atol=atol)
+        r = run_packed(options, model, None, **kw)
+        if log is not None:
+            log.close(r)
+        return r
+    M, A, B = scales
+    units = unit_factors(M, A, B)
+    r = run_packed(options.in_time_unit(B), scaled_model(model, M, A, B), units, **kw)
+    _to_scene_units(r, units, streamed)
+    r.info["event_stepper"]["internal_scales"] = {"mass": M, "length": A, "time": B}
+    # the ledger in the scene's units (rounded again by the scaling): judged again
+    r.status, r.message = ledger_verdict(r, r.info["event_stepper"]["ledger_tolerance"])
+    if model.units == "physical":
+        from ...units import scaled_parameters
+        r.info["scaled"] = scaled_parameters(model)
+    if log is not None:
+        log.close(r)
+    return r
+
+
+def _to_scene_units(r: Result, u, streamed: bool) -> None:
+    """Put a Result computed in internal units in the scene's (a streamed run's
+    frames and ledger already are)."""
+    if not streamed:
+        led = r.energy
+        r.energy = EnergyLedger(kinetic=led.kinetic * u.e, potential=led.potential * u.e,
+                                coulomb=led.coulomb * u.e, viscous=led.viscous * u.e,
+                                initial=led.initial * u.e)
+        r.t, r.x, r.v, r.f = r.t * u.t, r.x * u.x, r.v * u.v, r.f * u.f
+    r.t_final, r.x_final, r.v_final = r.t_final * u.t, r.x_final * u.x, r.v_final * u.v
+    r.events = [Event(e.t * u.t, e.kind, e.index) for e in r.events]
+
+
+def run_packed(options: EventOptions, model: Model, units, log=None, resume=None,
+               checkpoint=None, checkpoint_every=0) -> Result:
+    """Run ``model`` (in the kernel's units) with ``options``; ``units`` the factors to
+    the scene's own units (:class:`~granular_chain.units.UnitFactors`, None: the same),
+    used for the streamed frames and for times in messages. With a ``log`` (or
+    ``resume`` or ``checkpoint``) the frames are streamed (:class:`EventRun`).
+
+    Returns
+    -------
+    Result
+        ``stepper='event'``, ``dt=None``; frames at t = 0, at every event batch
+        for N <= 64 (longer chains: at the cadence only, to bound memory), at the
+        ``output.dt`` cadence (see :func:`~.options.frame_interval`), and at the
+        end; ``events`` the full event log; ``steps`` the Taylor steps taken.
+    """
+    tscale = units.t if units is not None else 1.0
+    packed = pack_run(model, options, stream=log is not None)
+    run = None
+    if log is not None:
+        run = EventRun(packed, log, units, checkpoint, checkpoint_every)
+        if resume is not None:
+            run.restore(resume)
+    with stop_signals() as stop:
+        code, wall = drive(packed, stop, run)
+    if run is not None:
+        run.flush()
+        wall += run.wall
+    result = build_result(packed, code, wall, model, tscale, run)
+    if code == Status.INTERRUPTED:
+        result.info["signal"] = stop.signum
+        result.message = (f"stopped by {stop.name} at t = {result.t_final * tscale:.12g} "
+                          f"(t_end = {options.t_end * tscale:g}); the result holds the "
+                          f"frames computed until then")
+    return result
+
+
+def next_budget(budget: int, seconds: float) -> int:
+    """Passes for the next kernel call so that it lasts about CHUNK_SECONDS: scaled
+    by the time the last ``budget`` passes took, by at most 4x up and 8x down (one
+    slow pass, e.g. a page fault, must not shrink the budget to nothing)."""
+    if seconds <= 0.0:
+        return 4 * budget
+    scaled = budget * (0.5 * CHUNK_SECONDS / seconds)  # aim at half: passes vary
+    return int(min(max(scaled, budget / 8.0, 1.0), 4.0 * budget, 1 << 40))
+
+
+def drive(packed: Packed, stop=None, run=None):
+    """Call the kernel until it returns a Status.
+
+    With a :class:`~granular_chain.interrupts.StopRequest` ``stop``, each call
+    makes a bounded number of main-loop passes (sized to return within about
+    CHUNK_SECONDS) and a requested stop ends the run with Status.INTERRUPTED
+    between calls; the kernel resumes from its records, so the trajectory is the
+    same bit for bit as in one call. With an :class:`EventRun` ``run``, the
+    frames recorded by each call are handed on between calls and checkpoints are
+    taken (:meth:`EventRun.between`), and the pace counters start from the run's.
+    A run that cannot reach t_end within run.max_steps at its pace ends with
+    Status.MAX_STEPS (``packed.out_of_steps``). Returns the code and the wall
+    time (seconds).
+    """
+    settings = packed.records.settings
+    budget = FIRST_BUDGET if run is None else run.budget
+    start = time.perf_counter()
+    clock = packed.clock
+    mark = (float(clock.time), int(clock.steps)) if run is None else run.mark
+    while True:
+        if stop is None:
+            settings["budget"] = 0
+        else:
+            settings["budget"] = budget if run is None else run.passes(budget)
+        t0 = time.perf_counter()
+        code = packed.call()
+        if code == Pause.LOG_FULL:
+            if run is not None:
+                run.flush()  # (the kernel resumes a step cut short by a full buffer)
+            grow_buffers(packed)
+        elif code == Pause.CHUNK_DONE:
+            budget = next_budget(budget, time.perf_counter() - t0)
+            if _out_of_steps(packed, mark):
+                code = Status.MAX_STEPS
+                packed.out_of_steps = True
+                _final_frame(packed)
+                break
+            clock = packed.clock
+            mark = (float(clock.time), int(clock.steps))
+        else:
+            break
+        interrupted = stop is not None and stop.requested
+        if run is not None:
+            run.between(budget, mark, time.perf_counter() - start, interrupted)
+        if interrupted:
+            code = Status.INTERRUPTED
+            _final_frame(packed)
+            break
+    settings["budget"] = 0
+    return int(code), time.perf_counter() - start
+
+
+def _out_of_steps(packed: Packed, mark) -> bool:
+    """True when t_end cannot be reached within run.max_steps even at the faster of
+    two paces: the mean step over the run so far and over the last kernel call
+    (``mark`` = (t, steps) at its start). Judged only after PACE_MIN_STEPS steps.
+
+    The event stepper's steps are bounded by the fastest time scale of the mode
+    (n = 2: a quarter of 1/(drag rate + contact rate); other n: the series'
+    radius): an overdamped scene, drag rate gamma/m far above every contact
+    rate, creeps on the slow time scale gamma/k and would need t_end gamma/m
+    steps. Such a run ends at once with Status.MAX_STEPS and the numbers, not
+    after hours. Sets ``packed.projection``.
+    """
+    clock, settings = packed.clock, packed.settings
+    steps = int(clock.steps)
+    if steps < PACE_MIN_STEPS or steps <= mark[1]:
+        return False
+    t = float(clock.time)
+    pace = max(t / steps, (t - mark[0]) / (steps - mark[1]))
+    left = int(settings.max_steps) - steps
+    need = (float(settings.t_end) - t) / pace if pace > 0.0 else math.inf
+    if need <= left:
+        return False
+    packed.projection = (need, pace)
+    return True
+
+
+def _final_frame(packed: Packed) -> None:
+    """Record a frame at the state an interrupted run reached (kernel state is
+    consistent between calls), unless the last frame is already there."""
+    clock = packed.clock
+    nfr = int(clock.n_frames)
+    if packed.records.frames.t[nfr - 1] == clock.time:
+        return
+    if packed.records.frames.t.size - nfr < 1:
+        grow_buffers(packed)
+    rec = packed.records
+    record_final_frame(packed.law, rec.clock, rec.model, rec.state, rec.frames)
+
+
+def _grow(a: np.ndarray, n: int) -> np.ndarray:
+    b = np.zeros((n,) + a.shape[1:], dtype=a.dtype)
+    b[: a.shape[0]] = a
+    return b
+
+
+def grow_buffers(packed: Packed) -> None:
+    """Grow whichever buffer is short (doubling), replacing it in ``packed.records``:
+    the state lives in the records, so the kernel called again resumes where it
+    stopped."""
+    rec = packed.records
+    clock = packed.clock
+    N = rec.state.u.size
+    frames, log = rec.frames, rec.log
+    if frames.t.size - clock.n_frames < 8:
+        n2 = 2 * frames.t.size
+        frames = type(frames)(*(_grow(a, n2) for a in frames))
+    if log.t.size - clock.n_events < 2 * N + 8:
+        n2 = 2 * log.t.size
+        log = log._replace(t=_grow(log.t, n2), kind=_grow(log.kind, n2),
+                           index=_grow(log.index, n2))
+    packed.records = rec._replace(frames=frames, log=log)
+
+
+class EventRun:
+    """The driver's side of an event run whose frames are streamed.
+
+    Between kernel calls the frames the kernel recorded since the last call are
+    handed to ``log`` (in the scene's units: exactly the numbers the Result of
+    an unstreamed run holds) and the frame buffers are emptied but for their
+    last frame, whose time the kernel reads; the event log stays in memory (a
+    few numbers an event, not frames). Checkpoints (:func:`checkpoint_state`)
+    go to ``checkpoint`` every ``checkpoint_every`` Taylor steps and when the
+    run is interrupted.
+    """
+
+    def __init__(self, packed: Packed, log: FrameLog, units, checkpoint=None,
+                 checkpoint_every: int = 0):
+        self.packed, self.log, self.units = packed, log, units
+        self.checkpoint = checkpoint
+        self.every = int(checkpoint_every) if checkpoint is not None else 0
+        self.handed = 0  #: rows of the frame buffers already handed on
+        self.frames = 0  #: frames handed on over the whole run (Frame.step)
+        self.pe0 = math.nan  #: elastic energy of the first frame (kernel units)
+        self.balance = 0.0  #: largest |ledger balance| over the frames (kernel units)
+        self.budget, self.mark = FIRST_BUDGET, (float(packed.clock.time), 0)
+        self.next_checkpoint = self.every
+        self.wall = 0.0  #: wall time of the kernel calls before a resume
+        self.resumed = False
+
+    def passes(self, budget: int) -> int:
+        """The work budget of the next call: ``budget``, cut so that the call returns
+        at the next checkpoint (the trajectory does not depend on where calls end)."""
+        if self.every <= 0:
+            return budget
+        left = self.next_checkpoint - int(self.packed.clock.steps)
+        return int(min(budget, max(left, 1)))
+
+    def between(self, budget: int, mark, wall: float, interrupted: bool) -> None:
+        """After a kernel call: hand on its frames, checkpoint when due or interrupted."""
+        self.budget, self.mark = budget, mark
+        self.flush()
+        steps = int(self.packed.clock.steps)
+        due = self.every > 0 and steps >= self.next_checkpoint
+        if due:
+            self.next_checkpoint = steps + self.every
+        if self.checkpoint is not None and (due or interrupted):
+            self.checkpoint(checkpoint_state(self, self.wall + wall, interrupted))
+
+    def flush(self) -> None:
+        """Hand on the frames recorded since the last flush; keep the last one in row 0."""
+        pk = self.packed
+        nfr = int(pk.clock.n_frames)
+        if nfr == 0:
+            return
+        frames = pk.records.frames
+        fr_e = frames.e
+        if self.frames == 0 and self.handed == 0:
+            self.pe0 = float(fr_e[0, 1])
+        e0 = pk.ke0 + self.pe0
+        if nfr > self.handed:
+            block = fr_e[self.handed:nfr]
+            # the ledger error in kernel units, as EnergyLedger.balance_error forms it
+            worst = float(np.max(np.abs(block[:, 0] + block[:, 1] + block[:, 2]
+                                        + block[:, 3] - e0)))
+            if not math.isnan(self.balance) and not worst <= self.balance:
+                self.balance = worst
+        self._hand_on(self.handed, nfr, e0)
+        if nfr > 1:
+            for buf in frames:
+                buf[0] = buf[nfr - 1]
+            pk.records.clock["n_frames"] = 1
+        self.handed = 1
+
+    def _hand_on(self, lo: int, hi: int, e0: float) -> None:
+        """Rows lo..hi-1 of the frame buffers to the log, in the scene's units."""
+        frames, u, record = self.packed.records.frames, self.units, self.log.record
+        xs, vs, fs = frames.x, frames.v, frames.f
+        ts, es = frames.t[lo:hi].tolist(), frames.e[lo:hi].tolist()  # exact floats
+        if u is not None:
+            e0 = e0 * u.e
+        for q in range(lo, hi):
+            t, (ke, pe, wc, wv) = ts[q - lo], es[q - lo]
+            x, v, f = xs[q], vs[q], fs[q]
+            if u is not None:
+                t, x, v, f = t * u.t, x * u.x, v * u.v, f * u.f
+                ke, pe, wc, wv = ke * u.e, pe * u.e, wc * u.e, wv * u.e
+            record(Frame(self.frames, t, x, v, f, ke, pe, wc, wv, e0))
+            self.frames += 1
+
+    def restore(self, state: dict) -> None:
+        """Continue from ``state`` (:func:`checkpoint_state` of a run of the same scene)."""
+        if int(state.get("format", -1)) != CHECKPOINT_FORMAT:
+            raise ValueError(f"not an event-stepper checkpoint of format {CHECKPOINT_FORMAT}")
+        pk = self.packed
+        rec = pk.records
+        _restore_array(rec.clock, state["k_clock"], "clock")
+        for group in _SAVED_GROUPS:
+            for name, old in getattr(rec, group)._asdict().items():
+                _restore_array(old, state[f"k_{group}_{name}"], f"{group}.{name}")
+        _restore_array(rec.log.counts, state["events_counts"], "log.counts")
+        live = int(pk.clock.n_frames)
+        rows = max(rec.frames.t.shape[0], 2 * live + 16)
+        frames = {name: _grown_copy(state["frames_" + name], old, rows, live)
+                  for name, old in rec.frames._asdict().items()}
+        live = int(pk.clock.n_events)
+        rows = max(rec.log.t.shape[0], 2 * live + 16)
+        log = {name: _grown_copy(state["events_" + name], getattr(rec.log, name), rows, live)
+               for name in ("t", "kind", "index")}
+        rec = rec._replace(frames=rec.frames._replace(**frames), log=rec.log._replace(**log))
+        pk.records = rec
+        self.handed, self.frames = int(state["handed"]), int(state["frames"])
+        self.pe0, self.balance = float(state["pe0"]), float(state["kernel_balance"])
+        self.budget = int(state["budget"])
+        self.mark = (float(state["mark_t"]), int(state["mark_steps"]))
+        steps = int(pk.clock.steps)
+        self.next_checkpoint = steps + self.every if self.every > 0 else 0
+        self.wall = float(state["wall_time"])
+        self.resumed = True
+        _restore_log(self.log, state)
+
+
+def _grown_copy(saved, old: np.ndarray, rows: int, live: int) -> np.ndarray:
+    """A buffer like ``old`` with ``rows`` rows, its first ``live`` the saved ones."""
+    buf = np.zeros((rows,) + old.shape[1:], dtype=old.dtype)
+    buf[:live] = saved
+    return buf
+
+
+def _restore_array(old: np.ndarray, saved, name: str) -> None:
+    """Copy a checkpointed array into the kernel's array of the same shape."""
+    new = np.asarray(saved)
+    if new.shape != old.shape or new.dtype != old.dtype:
+        raise ValueError(f"checkpoint: {name} has shape {new.shape} ({new.dtype}), the scene "
+                         f"gives {old.shape} ({old.dtype}) (another scene?)")
+    old[...] = new
+
+
+def checkpoint_state(run: EventRun, wall: float = 0.0, interrupted: bool = False) -> dict:
+    """Everything an event run needs to continue exactly (plain numpy arrays and
+    Python scalars, for ``numpy.savez``).
+
+    Keys: ``format``; ``steps`` (steps taken); ``k_clock`` the kernel's clock
+    record (:data:`~.records.CLOCK_DTYPE`: time, step, event and frame counts,
+    the cadence position...); ``k_<group>_<field>`` every array of the kernel's
+    ``state`` and ``work`` records (positions ``k_state_u``,
+    velocities ``k_state_v``, overlaps, contact and friction modes, the kept
+    moving set, ...); the live rows of the frame buffers ``frames_t, frames_x,
+    frames_v, frames_f, frames_e`` (the last frame, already handed on) and the
+    event log so far ``events_t, events_kind, events_index``, ``events_counts`` (kernel
+    numbering and units); the driver's counters ``handed``, ``frames`` (frames
+    handed on so far), ``pe0``, ``kernel_balance``, ``budget``, ``mark_t``,
+    ``mark_steps``, ``wall_time`` (seconds of kernel calls so far),
+    ``interrupted`` (taken because a signal stops the run); and the FrameLog's
+    ``log_count``, ``log_max_balance_error``, ``log_keep`` and its first and
+    latest frames ``log_first_<field>``, ``log_last_<field>`` (fields of
+    :class:`~granular_chain.frames.Frame`), for a resumed log that keeps only
+    those two.
+    """
+    pk = run.packed
+    rec = pk.records
+    state = {"format": CHECKPOINT_FORMAT, "steps": int(pk.clock.steps),
+             "k_clock": np.array(rec.clock)}
+    for group in _SAVED_GROUPS:
+        for name, arr in getattr(rec, group)._asdict().items():
+            state[f"k_{group}_{name}"] = np.array(arr)
+    nfr, nev = int(pk.clock.n_frames), int(pk.clock.n_events)
+    for name, arr in rec.frames._asdict().items():
+        state["frames_" + name] = np.array(arr[:nfr])
+    for name in ("t", "kind", "index"):
+        state["events_" + name] = np.array(getattr(rec.log, name)[:nev])
+    state["events_counts"] = np.array(rec.log.counts)
+    state.update(handed=run.handed, frames=run.frames, pe0=run.pe0,
+                 kernel_balance=run.balance, budget=int(run.budget),
+                 mark_t=float(run.mark[0]), mark_steps=int(run.mark[1]), wall_time=float(wall),
+                 interrupted=bool(interrupted))
+    log = run.log
+    state.update(log_count=log.count, log_max_balance_error=float(log.max_balance_error),
+                 log_keep=bool(log.keep))
+    if log.count:
+        for which, k in (("first", 0), ("last", -1)):
+            for name in log._FIELDS:
+                value = log.kept[name][k]
+                state[f"log_{which}_{name}"] = np.array(value) if isinstance(
+                    value, np.ndarray) else value
+    return state
+
+
+def _restore_log(log: FrameLog, state: dict) -> None:
+    """Put a FrameLog's counters (and, keeping first and latest only, those two
+    frames) back as the checkpointed run's log had them."""
+    log.count = int(state["log_count"])
+    log.max_balance_error = float(state["log_max_balance_error"])
+    if log.keep or log.count == 0:
+        return
+    kept = {}
+    for name in log._FIELDS:
+        first, last = state[f"log_first_{name}"], state[f"log_last_{name}"]
+        if np.ndim(first) == 0:  # (numpy.savez turns scalars into 0-d arrays)
+            first, last = np.asarray(first).item(), np.asarray(last).item()
+        kept[name] = [first, last] if log.count >= 2 else [first]
+    log.kept = kept

@@ -1,0 +1,305 @@
+"""Modes: which contacts are closed, which granules slide, stick or move at all.
+
+Contacts: closed iff delta > 0, or delta = 0 and the first non-zero derivative
+(relative velocity, then relative acceleration) is positive. Granules with
+Coulomb friction (``slide``): +-1 sliding along v when v != 0; at v = 0 stuck
+(0) if |F| <= eta_static (slip at |F| = eta_static only if |F| is growing),
+else sliding along F; 2 for a frictionless granule. :func:`settle` re-derives
+the modes after an event batch and logs what changed.
+
+The moving set (:func:`is_moving`: sliding granules, frictionless granules that
+move or have a closed contact) is kept incrementally, and ``settle`` works on
+a window around each batch, so steps and events cost O(active), not O(N).
+"""
+
+import numba
+
+from ...codes import EventKind
+from ...laws.contact import LAW_LINEAR, contact_force
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
+def _contact_force(law, model, state, j):
+    """Force of contact j (0 when absent or open)."""
+    if model.present[j] == 0 or state.closed[j] == 0:
+        return 0.0
+    return contact_force(law, state.overlap[j], model.stiffness[j], model.exponent[j])
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def spring_force(law, model, state, i, skip):
+    """Net contact force on granule i (contact ``skip`` left out; -5: none)."""
+    f = 0.0
+    if skip != i:
+        f += _contact_force(law, model, state, i)
+    if skip != i + 1:
+        f -= _contact_force(law, model, state, i + 1)
+    return f
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def force_rate(law, model, state, j):
+    """Time derivative of the force of contact j, k (n - 1) delta^(n-2) w (0 when open)."""
+    overlap = state.overlap
+    if model.present[j] == 0 or state.closed[j] == 0 or overlap[j] < 0.0:
+        return 0.0
+    N = state.v.size
+    vl = state.v[j - 1] if j >= 1 else 0.0
+    vr = state.v[j] if j < N else 0.0
+    w = vl - vr
+    if law == LAW_LINEAR:
+        return model.stiffness[j] * w
+    if overlap[j] == 0.0:
+        return 0.0
+    a = model.exponent[j] - 1.0
+    return model.stiffness[j] * a * overlap[j] ** (a - 1.0) * w
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def acceleration(law, model, state, i, skip):
+    """Acceleration of granule i in its mode (0 when stuck or outside the chain)."""
+    N = state.v.size
+    if i < 0 or i >= N:
+        return 0.0
+    s = state.slide[i]
+    if s == 0:
+        return 0.0
+    a = spring_force(law, model, state, i, skip) - model.gamma[i] * state.v[i]
+    if s == 1 or s == -1:
+        a -= model.eta[i] * s
+    return a / model.mass[i]
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def initial_friction_modes(model, state):
+    """Friction modes at the start: ``has_coulomb`` 1 where a static threshold
+    exists (Coulomb friction), ``slide`` the sign of v there, 2 (no friction) elsewhere."""
+    v, slide = state.v, state.slide
+    for i in range(v.size):
+        if model.eta_static[i] > 0.0:
+            model.has_coulomb[i] = 1
+            slide[i] = 1 if v[i] > 0.0 else (-1 if v[i] < 0.0 else 0)
+        else:
+            model.has_coulomb[i] = 0
+            slide[i] = 2
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def _contact_mode(law, j, model, state, work):
+    """The mode contact j must have now (1 closed, 0 open)."""
+    N = state.v.size
+    d = state.overlap[j]
+    forced = work.contact_flag[j]
+    if d == 0.0 and forced >= 2:
+        # closed or opened by a located root: the root's direction (from the
+        # series) decides, not a roundoff-level derivative.
+        return 1 if forced == 2 else 0
+    if d > 0.0:
+        return 1
+    if d < 0.0:
+        return 0
+    vl = state.v[j - 1] if j >= 1 else 0.0
+    vr = state.v[j] if j < N else 0.0
+    w = vl - vr
+    if w > 0.0:
+        return 1
+    if w < 0.0:
+        return 0
+    ar = acceleration(law, model, state, j - 1, j) - acceleration(law, model, state, j, j)
+    if ar > 0.0:
+        return 1
+    if ar < 0.0 or state.closed[j] == 0:
+        return 0
+    # delta, w and the relative acceleration all vanish: a touching contact that
+    # a pulse has not reached yet (a chain of touching grains). The sign is set
+    # by a higher derivative, which the step's series has to order P: keep the
+    # mode, and the step's root search at tau = 0 (first non-zero coefficient)
+    # opens it if it must. Deciding "open" here reopened the contact a batch
+    # had just closed, and a struck chain of 4 touching grains chattered to a
+    # Zeno stop at t = 0.
+    return 1
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def _friction_mode(law, i, model, state, work):
+    """The friction mode granule i (with Coulomb friction) must have now."""
+    v = state.v[i]
+    if v > 0.0:
+        return 1
+    if v < 0.0:
+        return -1
+    if work.granule_flag[i] == 2:  # a slip located by a root: kept
+        return state.slide[i]
+    F = spring_force(law, model, state, i, -5)
+    es = model.eta_static[i]
+    if F > es:
+        return 1
+    if F < -es:
+        return -1
+    if abs(F) == es and es > 0.0:
+        dF = force_rate(law, model, state, i) - force_rate(law, model, state, i + 1)
+        if F > 0.0 and dF > 0.0:
+            return 1
+        if F < 0.0 and dF < 0.0:
+            return -1
+    return 0
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def _save_old(state, work, a, b):
+    """Save the modes of granules a..b and contacts a..b+1 (clipped)."""
+    N = state.slide.size
+    for i in range(max(a, 0), min(b, N - 1) + 1):
+        work.old_slide[i] = state.slide[i]
+    for j in range(max(a, 0), min(b + 1, N) + 1):
+        work.old_closed[j] = state.closed[j]
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def _settle_window(law, model, state, work):
+    """Iterate the modes of the window ``work.window`` to a fixed point.
+
+    Modes change only next to an event, and a change propagates to its
+    neighbours only, so the window grows by one on a side where something
+    changed at its edge. On return ``work.window`` holds the final window.
+    """
+    N = state.v.size
+    closed, slide = state.closed, state.slide
+    lo = max(work.window[0], 0)
+    hi = min(work.window[1], N - 1)
+    _save_old(state, work, lo, hi)
+    for _ in range(64):
+        changed = False
+        nlo = lo
+        nhi = hi
+        for j in range(lo, hi + 2):
+            if model.present[j] == 0:
+                continue
+            new = _contact_mode(law, j, model, state, work)
+            if new != closed[j]:
+                closed[j] = new
+                changed = True
+                nlo = min(nlo, j - 2)
+                nhi = max(nhi, j + 1)
+        for i in range(lo, hi + 1):
+            if model.has_coulomb[i] == 0:
+                continue
+            new = _friction_mode(law, i, model, state, work)
+            if new != slide[i]:
+                slide[i] = new
+                changed = True
+                nlo = min(nlo, i - 1)
+                nhi = max(nhi, i + 1)
+        nlo = max(nlo, 0)
+        nhi = min(nhi, N - 1)
+        # newly included granules and contacts (untouched so far): save their modes
+        for i in range(nlo, lo):
+            work.old_slide[i] = slide[i]
+            work.old_closed[i] = closed[i]
+        for i in range(hi + 1, nhi + 1):
+            work.old_slide[i] = slide[i]
+            work.old_closed[i + 1] = closed[i + 1]
+        lo = nlo
+        hi = nhi
+        if not changed:
+            break
+    work.window[0] = lo
+    work.window[1] = hi
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
+def log_event(t, kind, index, clock, log):
+    """Append an event (time, codes.EventKind, model index) to the log."""
+    n = clock.n_events
+    log.t[n] = t
+    log.kind[n] = kind
+    log.index[n] = index
+    clock.n_events = n + 1
+    log.counts[kind] += 1
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def settle(law, t, settings, clock, model, state, work, log):
+    """Re-derive the modes in ``work.window`` from the state at an event batch
+    (time t) and log what changed. Returns 1 if the watched contact opened.
+
+    Cost: the window, not N (see :func:`_settle_window`).
+    """
+    _settle_window(law, model, state, work)
+    lo, hi = work.window[0], work.window[1]
+    closed, slide, old_c, old_s = state.closed, state.slide, work.old_closed, work.old_slide
+    opened = 0
+    for j in range(lo, hi + 2):
+        if closed[j] != old_c[j]:
+            kind = EventKind.CONTACT_CLOSE if closed[j] == 1 else EventKind.CONTACT_OPEN
+            log_event(t, kind, j - 1, clock, log)
+            if j == settings.watch:
+                if closed[j] == 1:
+                    clock.watched = 1
+                elif clock.watched == 1:
+                    opened = 1
+    for i in range(lo, hi + 1):
+        if model.has_coulomb[i] == 0 or state.v[i] != 0.0:
+            continue
+        if (old_s[i] == 1 or old_s[i] == -1) and work.granule_flag[i] == 3:
+            log_event(t, EventKind.STOP, i, clock, log)
+        if (slide[i] == 1 or slide[i] == -1) and slide[i] != old_s[i]:
+            log_event(t, EventKind.SLIP, i, clock, log)
+    return opened
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
+def is_moving(i, state, model):
+    """Member of the moving set: sliding, or frictionless and not at rest
+    force-free (v != 0 or a closed contact). A frictionless granule at rest
+    with open contacts stays at rest until one of them closes, which is an
+    event of its moving neighbour, so it costs nothing until then."""
+    s = state.slide[i]
+    if s == 1 or s == -1:
+        return 1
+    if s == 0:
+        return 0
+    if state.v[i] != 0.0:
+        return 1
+    if model.present[i] == 1 and state.closed[i] == 1:
+        return 1
+    if model.present[i + 1] == 1 and state.closed[i + 1] == 1:
+        return 1
+    return 0
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def update_moving_set(lo, hi, clock, model, state):
+    """Add to or remove from the moving set the granules lo..hi whose membership changed."""
+    in_moving, pos, mov = state.is_moving, state.moving_pos, state.moving
+    nmv = clock.n_moving
+    for i in range(lo, hi + 1):
+        inn = is_moving(i, state, model)
+        if inn == 1 and in_moving[i] == 0:
+            in_moving[i] = 1
+            pos[i] = nmv
+            mov[nmv] = i
+            nmv += 1
+        elif inn == 0 and in_moving[i] == 1:
+            in_moving[i] = 0
+            last = mov[nmv - 1]
+            mov[pos[i]] = last
+            pos[last] = pos[i]
+            nmv -= 1
+    clock.n_moving = nmv
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def all_at_rest(law, clock, model, state):
+    """Every granule at rest for good. Granules outside the moving set are stuck
+    (v = 0 exactly): only the moving set needs a look."""
+    for q in range(clock.n_moving):
+        i = state.moving[q]
+        if state.v[i] != 0.0:
+            return False
+        if model.has_coulomb[i] == 0:
+            if spring_force(law, model, state, i, -5) != 0.0:
+                return False
+        elif state.slide[i] != 0:
+            return False
+    return True

@@ -1,0 +1,70 @@
+"""What the event stepper reads from a scene, read in one place: :func:`event_options`."""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple, Optional
+
+__all__ = ["EventOptions", "event_options", "series_order", "frame_interval"]
+
+# n = 2: order and relative size of the first neglected terms (below roundoff).
+LINEAR_ORDER = 24
+LINEAR_RTOL = 2e-17
+# n = 2: largest step times the eigenvalue bound L (see kernel.taylor_step, step_cap).
+LINEAR_STEP = 0.5
+
+#: Chains up to this many granules get a frame at every event batch; longer ones
+#: at the output.dt cadence only (a frame holds 3 N values; a long chain has
+#: thousands of event batches).
+FRAMES_AT_EVENTS_MAX_N = 64
+_DEFAULT_FRAMES = 1000
+_DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f), as the Verlet default
+
+
+class EventOptions(NamedTuple):
+    """The scene's run and output settings the event stepper uses (times in the
+    units the stepper runs in)."""
+
+    t_end: float
+    rtol: float                 #: relative tolerance (n != 2; n = 2 is exact)
+    atol: float                 #: absolute tolerance (n != 2)
+    max_steps: int
+    max_events: int
+    stop_contact: int           #: model contact whose opening is "separation"
+    stop_separation: bool       #: end the run when that contact opens
+    stop_rest: bool             #: end the run when every granule is at rest
+    output_dt: Optional[float]  #: output cadence in time (None: the default)
+    output_every: Optional[int]  #: a frame every this many steps (None: none)
+
+    def in_time_unit(self, B: float) -> "EventOptions":
+        """The options with times in units of B."""
+        return self._replace(t_end=self.t_end / B,
+                             output_dt=self.output_dt / B if self.output_dt is not None else None)
+
+
+def event_options(scene) -> EventOptions:
+    """The :class:`EventOptions` of a scene (``scene.run`` and ``scene.output``)."""
+    run, out = scene.run, scene.output
+    stops = run.stop_conditions
+    return EventOptions(
+        t_end=run.t_end, rtol=run.rtol, atol=run.atol, max_steps=run.max_steps,
+        max_events=run.max_events, stop_contact=run.stop_contact,
+        stop_separation="separation" in stops, stop_rest="rest" in stops,
+        output_dt=out.dt, output_every=out.every)
+
+
+def series_order(rtol: float) -> int:
+    """Taylor order for a relative tolerance (Jorba & Zou: about -ln(tol)/2, at least 8)."""
+    return int(min(30, max(8, math.ceil(-0.5 * math.log(rtol)) + 2)))
+
+
+def frame_interval(options: EventOptions, N: int) -> float:
+    """Output cadence in time (0: none). ``output.dt`` if given; for a chain longer than
+    FRAMES_AT_EVENTS_MAX_N without it (and without ``output.every``) about 1000 frames,
+    fewer for long chains (at most 1e7 values per recorded array), as Verlet's default."""
+    if options.output_dt is not None:
+        return float(options.output_dt)
+    if N <= FRAMES_AT_EVENTS_MAX_N or options.output_every is not None:
+        return 0.0
+    frames = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // N))
+    return float(options.t_end) / frames

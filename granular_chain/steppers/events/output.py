@@ -1,0 +1,46 @@
+"""Frames the kernel records: positions, velocities, net contact forces, the energy ledger."""
+
+import numba
+
+from ...laws.contact import contact_energy, contact_force
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous):
+    """Append the frame of the current state at time ``t`` to ``frames``.
+
+    ``work_coulomb``, ``work_viscous``: friction work since the clock's totals
+    (a frame inside a step, before the step's work is added), else 0.
+    """
+    N = state.u.size
+    u, v, overlap = state.u, state.v, state.overlap
+    k = clock.n_frames
+    frames.t[k] = t
+    ke = 0.0
+    pe = 0.0
+    for i in range(N):
+        frames.x[k, i] = model.x0[i] + u[i]
+        frames.v[k, i] = v[i]
+        ke += 0.5 * model.mass[i] * v[i] * v[i]
+        frames.f[k, i] = 0.0
+    for j in range(N + 1):
+        if model.present[j] == 0:
+            continue
+        c = contact_force(law, overlap[j], model.stiffness[j], model.exponent[j])
+        pe += contact_energy(law, overlap[j], model.stiffness[j], model.exponent[j])
+        if j >= 1:
+            frames.f[k, j - 1] -= c
+        if j < N:
+            frames.f[k, j] += c
+    frames.e[k, 0] = ke
+    frames.e[k, 1] = pe
+    frames.e[k, 2] = clock.work_coulomb + work_coulomb
+    frames.e[k, 3] = clock.work_viscous + work_viscous
+    clock.n_frames = k + 1
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def record_final_frame(law, clock_array, model, state, frames):
+    """A frame at the clock's time (driver: an interrupted run's last state)."""
+    clock = clock_array[0]
+    record_frame(law, clock.time, clock, model, state, frames, 0.0, 0.0)

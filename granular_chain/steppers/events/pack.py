@@ -1,0 +1,212 @@
+"""The kernel's records for a run of a Model (already in the units the kernel runs in)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from ..._compile import specialised
+from ...model import LAW_LINEAR, Model
+from .kernel import run_events
+from .modes import initial_friction_modes
+from .options import (FRAMES_AT_EVENTS_MAX_N, LINEAR_ORDER, LINEAR_RTOL, LINEAR_STEP,
+                      EventOptions, frame_interval, series_order)
+from .records import (CLOCK_DTYPE, MODE_DTYPE, SETTINGS_DTYPE, ChainArrays, EventLog,
+                      EventRecords, FrameBuffers, MotionState, Workspace)
+
+#: Rows of the frame buffers of a run whose frames are streamed (handed to a
+#: FrameLog between kernel calls): at most STREAM_FRAMES, at most about
+#: STREAM_VALUES values per array (x, v, f) for long chains, at least 16.
+STREAM_FRAMES = 256
+STREAM_VALUES = 1 << 16
+
+
+#: Snapshots of the settings and clock records as Python values (one C call to
+#: read; numpy's record attribute access costs a microsecond per field).
+SettingsValues = NamedTuple("SettingsValues", [(n, object) for n in SETTINGS_DTYPE.names])
+ClockValues = NamedTuple("ClockValues", [(n, object) for n in CLOCK_DTYPE.names])
+
+
+@dataclasses.dataclass
+class Packed:
+    """The kernel's records for one run, and what the result is built from."""
+
+    records: EventRecords
+    kernel: object  #: compiled entry point for them
+    law: int
+    coulomb: int
+    viscous: int
+    options: EventOptions  #: kernel units
+    ke0: float  #: initial kinetic energy
+    #: (steps still needed at the pace reached, that pace) when the run stopped
+    #: because run.max_steps could not reach t_end
+    projection: tuple = (0.0, 0.0)
+    out_of_steps: bool = False  #: stopped by that projection (Status.MAX_STEPS)
+
+    @property
+    def settings(self) -> "SettingsValues":
+        """The settings record's values now (a snapshot: write through ``records.settings``)."""
+        return SettingsValues(*self.records.settings[0].item())
+
+    @property
+    def clock(self) -> "ClockValues":
+        """The clock record's values now (a snapshot: write through ``records.clock``)."""
+        return ClockValues(*self.records.clock[0].item())
+
+    @property
+    def linear(self) -> bool:
+        return self.law == LAW_LINEAR
+
+    def with_records(self, records: EventRecords) -> "Packed":
+        """A copy holding other records (another run of the same packing)."""
+        return Packed(records, self.kernel, self.law, self.coulomb, self.viscous, self.options,
+                      self.ke0, self.projection, self.out_of_steps)
+
+    def call(self) -> int:
+        """Run the kernel on the records (until it returns a Status or a Pause)."""
+        return self.kernel(self.law, self.coulomb, self.viscous, *self.records)
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def linear_step_cap(model):
+    """n = 2: largest step, LINEAR_STEP / L with L a bound on the eigenvalues of
+    any linear mode: drag rate plus twice the fastest contact frequency (a
+    chain's highest mode is 2 sqrt(k/m)). 0 (no cap) when L = 0."""
+    kmax = 0.0
+    first = True
+    for j in range(model.present.size):
+        if model.present[j] == 1:
+            if first or model.stiffness[j] > kmax:
+                kmax = model.stiffness[j]
+            first = False
+    drag = 0.0
+    imax = 0.0
+    for i in range(model.mass.size):
+        im = 1.0 / model.mass[i]
+        g = model.gamma[i] * im
+        if i == 0 or g > drag:
+            drag = g
+        if i == 0 or im > imax:
+            imax = im
+    L = drag + 2.0 * math.sqrt(kmax * imax)
+    return LINEAR_STEP / L if L > 0 else 0.0
+
+
+def _contacts(model: Model):
+    """present, overlap, stiffness, exponent of the kernel's contacts 0..N."""
+    N = model.count
+    present = np.zeros(N + 1, dtype=np.int8)
+    overlap = np.zeros(N + 1)
+    stiffness = np.ones(N + 1)
+    exponent = np.full(N + 1, 2.0)
+    present[1:N] = 1
+    overlap[1:N] = model.d0
+    stiffness[1:N] = model.k
+    exponent[1:N] = model.n
+    w = model.walls
+    if model.features.left_wall:
+        present[0] = 1
+        overlap[0], stiffness[0], exponent[0] = w[0], w[1], w[2]
+    if model.features.right_wall:
+        present[N] = 1
+        overlap[N], stiffness[N], exponent[N] = w[3], w[4], w[5]
+    return present, overlap, stiffness, exponent
+
+
+def _overlap_limits(model: Model) -> np.ndarray:
+    """Overlap of each kernel contact at which the centres meet (N + 1,):
+    r_(j-1) + r_j between granules, the granule's radius at a wall."""
+    r = model.radius
+    lim = np.empty(model.count + 1)
+    lim[1:-1] = r[:-1] + r[1:]
+    lim[0] = r[0]
+    lim[-1] = r[-1]
+    return lim
+
+
+def _settings(options: EventOptions, N: int, linear: bool):
+    settings = np.zeros(1, SETTINGS_DTYPE)
+    s = settings.view(np.recarray)[0]
+    if linear:
+        s.order, s.rtol, s.atol = LINEAR_ORDER, LINEAR_RTOL, 0.0
+    else:
+        s.order, s.rtol, s.atol = series_order(options.rtol), options.rtol, options.atol
+    s.t_end = options.t_end
+    s.frame_interval = frame_interval(options, N)
+    s.watch = options.stop_contact + 1 if N > 1 else -10
+    s.stop_separation = int(options.stop_separation)
+    s.stop_rest = int(options.stop_rest)
+    s.max_events = options.max_events
+    s.max_steps = options.max_steps
+    s.frames_at_events = int(N <= FRAMES_AT_EVENTS_MAX_N)
+    s.every = options.output_every or 0
+    return settings
+
+
+def _workspace(N: int, P: int) -> Workspace:
+    ncand = 5 * N + 16
+    i8, i64 = np.int8, np.int64
+    return Workspace(
+        u_series=np.zeros((N, P + 1)), v_series=np.zeros((N, P + 1)),
+        d_series=np.zeros((N + 1, P + 1)), f_series=np.zeros((N + 1, P + 1)),
+        row=np.zeros(max(P + 1, N + 1)), force_on=np.zeros(N + 1), saved_u=np.zeros(N),
+        saved_v=np.zeros(N), saved_overlap=np.zeros(N + 1), active=np.zeros(N + 1, i64),
+        stuck=np.zeros(N, i64), contact_flag=np.zeros(N + 1, i8), granule_flag=np.zeros(N, i8),
+        old_closed=np.zeros(N + 1, i8), old_slide=np.zeros(N, i8),
+        cand_kind=np.zeros(ncand, i64), cand_index=np.zeros(ncand, i64),
+        cand_root=np.zeros(ncand), modal=np.zeros(1, MODE_DTYPE), window=np.zeros(2, i64))
+
+
+def frame_buffers(rows: int, N: int) -> FrameBuffers:
+    """Empty frame buffers of ``rows`` frames."""
+    return FrameBuffers(t=np.zeros(rows), x=np.zeros((rows, N)), v=np.zeros((rows, N)),
+                        f=np.zeros((rows, N)), e=np.zeros((rows, 4)))
+
+
+def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packed:
+    """The kernel's records for a run of ``model`` with ``options`` (kernel units):
+    the state, the settings and the work buffers. With ``stream`` the frame buffers
+    get a size set by N alone (STREAM_FRAMES rows, fewer for long chains: the
+    driver empties them between kernel calls) instead of room for the run's whole
+    cadence."""
+    feat = model.features
+    N = model.count
+    law = int(feat.law)
+    linear = law == LAW_LINEAR
+    settings = _settings(options, N, linear)
+    present, overlap, stiffness, exponent = _contacts(model)
+    chain = ChainArrays(x0=model.x0, present=present, stiffness=stiffness, exponent=exponent,
+                        mass=model.mass, eta=model.eta, eta_static=model.eta_static,
+                        gamma=model.gamma, overlap_limit=_overlap_limits(model),
+                        has_coulomb=np.zeros(N, dtype=np.int8))
+    v = model.v0.copy()
+    state = MotionState(u=np.zeros(N), v=v, overlap=overlap,
+                        closed=((overlap > 0) & (present == 1)).astype(np.int8),
+                        slide=np.zeros(N, dtype=np.int8), moving=np.zeros(N, dtype=np.int64),
+                        is_moving=np.zeros(N, dtype=np.int8),
+                        moving_pos=np.zeros(N, dtype=np.int64))
+    initial_friction_modes(chain, state)
+    clock = np.zeros(1, CLOCK_DTYPE)
+    clock["last_event"] = -math.inf
+    if linear:
+        settings["step_cap"] = linear_step_cap(chain)
+    fcap = 64
+    out_dt = float(settings["frame_interval"][0])
+    if out_dt > 0.0:
+        fcap = min(int(options.t_end / out_dt) + 16, 1 << 20)
+    if stream:  # rows set by N only: memory does not depend on the number of frames
+        fcap = max(16, min(STREAM_FRAMES, STREAM_VALUES // max(N, 1)))
+    ecap = 4 * N + 64
+    log = EventLog(t=np.zeros(ecap), kind=np.zeros(ecap, dtype=np.int64),
+                   index=np.zeros(ecap, dtype=np.int64), counts=np.zeros(4, dtype=np.int64))
+    records = EventRecords(settings, clock, chain, state,
+                           _workspace(N, int(settings["order"][0])), frame_buffers(fcap, N), log)
+    kernel = specialised(run_events, (law, int(feat.coulomb), int(feat.viscous)) + records,
+                         (0, 1, 2))
+    ke0 = 0.5 * float(np.dot(model.mass, v * v))
+    return Packed(records=records, kernel=kernel, law=law, coulomb=int(feat.coulomb),
+                  viscous=int(feat.viscous), options=options, ke0=ke0)
