@@ -95,23 +95,10 @@ def _map_task(task):
             out.initial, out.t_stop)
 
 
-# The event batch returns Status values. Until steppers.events does so itself,
-# it returns the kernel's own end codes and maps them with CODE_STATUS; once that
-# map is gone this import fails and the codes are taken as they are.
-try:
-    from ..steppers.events import CODE_STATUS as _KERNEL_CODE_STATUS
-except ImportError:
-    _KERNEL_CODE_STATUS = None
-
-
 def _status_values(batch_codes: np.ndarray) -> np.ndarray:
-    """The :class:`~granular_chain.codes.Status` value of each run of an event batch,
-    shape (M,), int8."""
-    status = np.asarray(batch_codes).astype(np.int8)
-    if _KERNEL_CODE_STATUS is not None:
-        for code, end in _KERNEL_CODE_STATUS.items():
-            status[batch_codes == code] = int(end)
-    return status
+    """The :class:`~granular_chain.codes.Status` value of each run of an event batch
+    (the batch returns them as they are), shape (M,), int8."""
+    return np.asarray(batch_codes).astype(np.int8)
 
 
 def _check_friction(name, values):

@@ -33,16 +33,11 @@ from .options import EventOptions, event_options
 from .pack import linear_step_cap, pack_run
 from .report import build_result
 
-__all__ = ["EventBatch", "BatchOutput", "CODE_STATUS", "POINT_BUDGET"]
+__all__ = ["EventBatch", "BatchOutput", "POINT_BUDGET"]
 
 #: Main-loop passes one point of an :class:`EventBatch` may make in the compiled
 #: loop before it is resumed from Python (a two-granule collision makes 5-100).
 POINT_BUDGET = 1 << 14
-
-#: Status of a run from its code: the kernel returns Status values, so this is
-#: the identity (kept for callers that map codes through it).
-CODE_STATUS = {int(s): s for s in Status}
-
 
 class FrictionPoints(NamedTuple):
     """The friction of every point, (M, N) each."""
