@@ -69,8 +69,9 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         Show a progress bar (default: only on a terminal, for runs longer than ~2 s).
     writers : sequence of FrameWriter, optional
         Attached to the run: each output frame is handed to them as the run
-        goes (:class:`granular_chain.frames.FrameWriter`), and ``close(result)``
-        at the end.
+        goes (:class:`granular_chain.frames.FrameWriter`); every frame is
+        written when this returns, and the caller closes them with the Result
+        (``close(result)``), as ``granular-chain run`` does.
     keep_frames : bool
         Keep every frame in the Result (default). False keeps the first and the
         last only, so memory does not grow with the number of frames: for runs
