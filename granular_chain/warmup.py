@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["kernels_cached", "prepare_kernels", "compile_notice", "NOTICE"]
+__all__ = ["kernels_cached", "prepare_kernels", "compile_notice", "announce_compilation", "NOTICE"]
 
 NOTICE = "compiling kernels, first run only (later runs reuse them) ..."
 _KERNEL_FILES = {"verlet": "kernel.*_chunk-*.nbi", "event": "kernel.run_events-*.nbi"}
@@ -55,6 +55,14 @@ def compile_notice(stepper: str, stream=None, quiet: bool = False):
         yield
     console.print(f"kernels compiled in {time.perf_counter() - start:.1f} s; "
                   f"later runs load them from the cache", highlight=False)
+
+
+def announce_compilation(stepper: str, stream=None) -> None:
+    """One line on stderr when ``stepper``'s kernels are not cached yet: for commands
+    (figures, boundaries) whose first minute would otherwise pass in silence."""
+    if not kernels_cached(stepper):
+        print(f"granular-chain: {NOTICE}", file=sys.stderr if stream is None else stream,
+              flush=True)
 
 
 def _two_step_copy(scene):

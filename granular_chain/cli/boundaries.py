@@ -1,5 +1,5 @@
 """``granular-chain boundaries``: outcome boundaries of the two-granule collision (the
-command is defined with them, in :mod:`granular_chain.boundaries`)."""
+command is defined with them, in :mod:`granular_chain.two_granules.boundaries`)."""
 
 from __future__ import annotations
 
@@ -11,4 +11,6 @@ def add_parser(subparsers) -> None:
 
 def run(args) -> int:
     from ..two_granules.boundaries import run_boundaries_command
+    from ..warmup import announce_compilation
+    announce_compilation("event")  # the collisions run on the event stepper
     return run_boundaries_command(args)

@@ -1,5 +1,5 @@
 """``granular-chain figures``: the paper's figures (the command is defined with them,
-in :mod:`granular_chain.figures`)."""
+in :mod:`granular_chain.paper.figures`)."""
 
 from __future__ import annotations
 
@@ -11,4 +11,6 @@ def add_parser(subparsers) -> None:
 
 def run(args) -> int:
     from ..paper.figures import run_figures_command
+    from ..warmup import announce_compilation
+    announce_compilation("event")  # the collisions run on the event stepper
     return run_figures_command(args)
