@@ -17,13 +17,12 @@ line not read first costs a read for ownership too), so the memory system moves
 The grain-step bound is that bandwidth over the DRAM bytes per grain-step
 (write-allocate included, counted below):
 
-* ``engine_3pass``: the arrays verlet_chunk streams in its three passes
-  (granular_chain/steppers/verlet.py), frictionless;
+* ``engine_3pass``: the arrays the blocked passes stream
+  (granular_chain/steppers/verlet/kernel.py, passes_chunk), frictionless;
 * ``engine_3pass_coulomb_viscous``: the same with the kick and drift parameters;
 * ``single_sweep``: what one sweep per step must move with per-granule
   parameters: u, v, f read and written (48 B) and inv_m, d0, k read (24 B);
-* ``single_sweep_uniform``: the same with uniform parameters (48 B), the hand
-  kernel of benchmarks/specialisation_overhead.py.
+* ``single_sweep_uniform``: the same with uniform parameters (48 B).
 
     python benchmarks/bandwidth.py --json
 """
