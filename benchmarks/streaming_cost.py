@@ -6,6 +6,7 @@ units), Coulomb and viscous friction on every granule when asked. Three ways,
 interleaved, best of --repeat each:
 
 - ``none``: one frame at the end, no writers (the stepping alone);
+- ``frames``: a frame every --every steps handed to no writer (the driver's work per frame);
 - ``trajectory``: a frame every --every steps appended to trajectory.h5;
 - ``all``: the same plus energy.csv and the thermo log (thermo.csv, 20 lines).
 
@@ -45,7 +46,7 @@ def run(way, grains, steps, every, features, folder: Path):
     s = scene(grains, steps, steps if way == "none" else every, features)
     model = build_model(s)
     writers, thermo = [], None
-    if way != "none":
+    if way not in ("none", "frames"):
         writers.append(TrajectoryFrames(folder, s, grains, model=model))
     if way == "all":
         writers.append(EnergyTable(folder))
@@ -67,7 +68,7 @@ def main():
     p.add_argument("--features", choices=list(FRICTION), default="frictionless")
     p.add_argument("--repeat", type=int, default=5)
     a = p.parse_args()
-    ways = ("none", "trajectory", "all")
+    ways = ("none", "frames", "trajectory", "all")
     best = {w: (float("inf"), 0) for w in ways}
     with tempfile.TemporaryDirectory() as tmp:
         run("none", a.grains, 10, 5, a.features, Path(tmp))  # compile or load the kernel

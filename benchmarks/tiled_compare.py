@@ -103,6 +103,9 @@ def event_cases() -> dict:
         for feat in FRICTION:
             out[f"event/N=20 n={exponent} {feat} random"] = _chain(
                 20, feat, exponent=exponent, stepper="event", t_end=20.0)
+        # walls: each feature set is a kernel compiled for these cases alone (the
+        # test's time is mostly compilation); none and both frictions cover the code
+        for feat in ("frictionless", "coulomb+viscous"):
             out[f"event/N=5 walls n={exponent} {feat}"] = _chain(
                 5, feat, exponent=exponent, walls=True, stepper="event", t_end=20.0)
         out[f"event/N=30 struck n={exponent}"] = _chain(30, "frictionless", exponent=exponent,
