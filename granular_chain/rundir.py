@@ -274,15 +274,26 @@ def _remove_run(folder: Path) -> None:
 
 
 def remove_files(folder: Path, files) -> None:
-    """Remove the listed files (paths relative to ``folder``), then the folders left
-    empty; anything not listed stays, and the folders that hold it."""
+    """Remove the listed files (paths relative to ``folder``), then the folders that
+    held them once they are empty, up to ``folder`` itself.
+
+    A listed path that is absolute or climbs out with ``..`` is skipped (a marker
+    edited by hand cannot reach outside its folder); anything not listed stays, and
+    the folders that hold it.
+    """
+    folder = Path(folder)
+    emptied = {folder}
     for rel in files:
-        target = Path(folder) / rel
+        rel = Path(rel)
+        if rel.is_absolute() or ".." in rel.parts:
+            continue
+        target = folder / rel
         if target.is_file() or target.is_symlink():
             target.unlink()
-    for root, _, _ in os.walk(folder, topdown=False):  # children before their parents
+            emptied.update(p for p in target.parents if folder in p.parents)
+    for held in sorted(emptied, key=lambda p: len(p.parts), reverse=True):  # children first
         try:
-            os.rmdir(root)
+            held.rmdir()
         except OSError:
             pass  # not empty: holds something that is not the engine's
 

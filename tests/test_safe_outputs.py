@@ -290,3 +290,17 @@ def test_a_folder_that_appears_during_the_run_is_left_alone(work, monkeypatch, c
     assert sorted(p.name for p in (work / "r").iterdir()) == ["my_thesis.tex"]
     beside = [p for p in work.iterdir() if p.name.startswith("r.run-")]
     assert len(beside) == 1 and read_marker(beside[0])["complete"] is True
+
+
+def test_remove_files_stays_inside_its_folder_and_keeps_unlisted_folders(tmp_path):
+    from granular_chain.rundir import remove_files
+    run = tmp_path / "run"
+    (run / "frames").mkdir(parents=True)
+    (run / "frames" / "f0.vtp").write_text("engine")
+    (run / "summary.json").write_text("engine")
+    (run / "mine").mkdir()  # an empty folder of the user's
+    outside = tmp_path / "outside.txt"
+    outside.write_text("user")
+    remove_files(run, ["frames/f0.vtp", "summary.json", "../outside.txt", str(outside)])
+    assert outside.read_text() == "user"
+    assert sorted(p.name for p in run.iterdir()) == ["mine"]
