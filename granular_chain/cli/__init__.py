@@ -6,14 +6,7 @@ why), 2 bad input (one line on stderr naming the file, the field and the
 problem; nothing written), 130 interrupted by Ctrl-C (SIGINT), 143 terminated
 (SIGTERM): an interrupted run is written as far as it went, marked incomplete.
 
-What ``run`` writes is asked for by the scene's ``output`` fields or, for one run,
-by flags that override them (``--vtk``, ``--trajectory/--no-trajectory``, ``--csv``,
-``--plots``): run.json and summary.json always, and only the writers asked for.
-The scene stored in summary.json records the choices after the flags.
-
-Where ``run`` writes, and what it may replace, is :mod:`granular_chain.rundir`'s
-rule: a new folder, or an earlier run folder of the engine holding nothing else
-(with ``--overwrite``); written beside the destination and renamed into place.
+What ``run`` writes, and where, is described in :mod:`.run`.
 
 One module per subcommand (:mod:`.run`, :mod:`.validate`, :mod:`.schema`,
 :mod:`.plot`, :mod:`.sweep`, :mod:`.diagnose`, :mod:`.figures`,
