@@ -16,6 +16,8 @@ from typing import NamedTuple, Protocol, Sequence
 
 import numpy as np
 
+from .result import TERMS_ADDED, ledger_balance
+
 __all__ = ["Frame", "FrameWriter", "FrameLog"]
 
 
@@ -36,6 +38,9 @@ class Frame(NamedTuple):
         Energy dissipated so far by kinetic and by hydrodynamic friction.
     initial : float
         Kinetic plus elastic energy at t = 0 (the ledger's reference).
+    contact_dissipated, wall_work, body_work : float
+        Energy dissipated so far by the contacts' dashpots, work done so far by
+        moving walls and by body forces (0 in a scene without them).
     """
 
     step: int
@@ -48,11 +53,21 @@ class Frame(NamedTuple):
     coulomb: float
     viscous: float
     initial: float
+    contact_dissipated: float = 0.0
+    wall_work: float = 0.0
+    body_work: float = 0.0
+
+    @property
+    def balance(self) -> float:
+        """The ledger's balance at this frame (:func:`granular_chain.result.ledger_balance`)."""
+        return ledger_balance(self.kinetic, self.potential, self.coulomb, self.viscous,
+                              self.contact_dissipated, self.wall_work, self.body_work,
+                              self.initial)
 
     @property
     def balance_error(self) -> float:
-        """|kinetic + potential + coulomb + viscous - initial| / initial (or absolute at 0)."""
-        err = abs(self.kinetic + self.potential + self.coulomb + self.viscous - self.initial)
+        """|balance| / initial (or absolute when the run starts with no energy)."""
+        err = abs(self.balance)
         return err / self.initial if self.initial > 0 else err
 
 
@@ -86,7 +101,8 @@ class FrameLog:
         is written.
     """
 
-    _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous")
+    _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous",
+               *TERMS_ADDED)
     QUEUED = 4
 
     def __init__(self, writers: Sequence[FrameWriter] = (), keep: bool = True,

@@ -22,6 +22,8 @@ from ._compile import specialised
 from .distributions import draw, is_recipe
 from .forces import total_potential
 from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
+from .laws.damping import DAMPING_LINEAR, DAMPING_NONE, DAMPING_VISCOELASTIC
+from .laws.wall_motion import WALL_FIXED, WALL_PULSE, WALL_SINE, WALL_VELOCITY
 from .scene import Scene
 
 __all__ = ["Features", "Model", "build_model", "friction_features", "scale_problem",
@@ -46,6 +48,15 @@ class Features:
         Some granule has hydrodynamic friction (gamma_i > 0).
     left_wall, right_wall : bool
         Walls present.
+    damping : int
+        Dashpot law of the contacts (:mod:`granular_chain.laws.damping`:
+        DAMPING_NONE, DAMPING_LINEAR, DAMPING_VISCOELASTIC).
+    tensile : bool
+        A damped contact's force may pull (ends at overlap 0, not at force 0).
+    body_force : bool
+        Some granule feels a body force (gravity or given forces).
+    driven : bool
+        Some wall moves (:mod:`granular_chain.laws.wall_motion`).
     """
 
     law: int
@@ -53,6 +64,15 @@ class Features:
     viscous: bool
     left_wall: bool
     right_wall: bool
+    damping: int = DAMPING_NONE
+    tensile: bool = False
+    body_force: bool = False
+    driven: bool = False
+
+    @property
+    def elastic_and_fixed(self) -> bool:
+        """No dashpot, no body force, no moving wall: the features of the paper."""
+        return self.damping == DAMPING_NONE and not self.body_force and not self.driven
 
     def describe(self) -> dict:
         return {
@@ -60,6 +80,9 @@ class Features:
                     LAW_POWER: "power"}[self.law],
             "coulomb": self.coulomb, "viscous": self.viscous,
             "left_wall": self.left_wall, "right_wall": self.right_wall,
+            "damping": {DAMPING_NONE: "none", DAMPING_LINEAR: "linear",
+                        DAMPING_VISCOELASTIC: "viscoelastic"}[self.damping],
+            "tensile": self.tensile, "body_force": self.body_force, "driven": self.driven,
         }
 
 
@@ -87,6 +110,16 @@ class Model:
     eta, eta_static, gamma : ndarray, shape (N,)
         Kinetic friction force, static threshold (>= eta) and viscous coefficient.
     features : Features
+    damping : ndarray, shape (N-1,)
+        Dashpot coefficient of each contact: c (force/speed) or A (time) by
+        ``features.damping`` (zeros when undamped).
+    wall_damping : ndarray, shape (2,)
+        Dashpot coefficient of the left and right wall contacts.
+    body_force : ndarray, shape (N,)
+        Force on each granule along +x (gravity m_i g direction, or given).
+    wall_motion : ndarray, shape (2, 3)
+        (kind, p1, p2) of the left and right wall
+        (:mod:`granular_chain.laws.wall_motion`; zeros: fixed).
     """
 
     mass: np.ndarray
@@ -105,6 +138,19 @@ class Model:
     units: str = "scaled"
     name: str = "scene"
     extras: dict = field(default_factory=dict)
+    damping: np.ndarray = None
+    wall_damping: np.ndarray = None
+    body_force: np.ndarray = None
+    wall_motion: np.ndarray = None
+
+    def __post_init__(self):
+        # Absent dissipation, forces and motion are zeros of the right shapes, so a
+        # Model built without them (the two-granule batch, tests) is a complete one.
+        N = self.mass.size
+        for name, shape in (("damping", (max(N - 1, 0),)), ("wall_damping", (2,)),
+                            ("body_force", (N,)), ("wall_motion", (2, 3))):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.zeros(shape))
 
     @property
     def count(self) -> int:
@@ -244,19 +290,81 @@ def build_model(scene: Scene) -> Model:
     else:
         law = LAW_POWER
     coulomb, viscous = friction_features(eta, eta_s, gamma)
+    k = np.ascontiguousarray(k, dtype=np.float64)
+    damping_code, damping, wall_damping = _dashpots(scene, mass, k, walls)
+    body = _body_force(scene, mass)
+    motion = _wall_motion(scene)
     features = Features(
         law=law,
         coulomb=bool(coulomb),
         viscous=bool(viscous),
         left_wall=left is not None,
         right_wall=right is not None,
+        damping=damping_code,
+        tensile=bool(scene.contacts.tensile) and damping_code != DAMPING_NONE,
+        body_force=bool(np.any(body != 0.0)),
+        driven=bool(np.any(motion[:, 0] != WALL_FIXED)),
     )
     return Model(
         mass=mass, inv_mass=1.0 / mass, radius=radius, x0=x0, v0=v0, d0=d0,
-        k=np.ascontiguousarray(k, dtype=np.float64), n=n_exp, walls=walls,
+        k=k, n=n_exp, walls=walls,
         eta=eta, eta_static=eta_s, gamma=gamma, features=features,
         units=scene.units, name=scene.name,
+        damping=damping, wall_damping=wall_damping, body_force=body, wall_motion=motion,
     )
+
+
+def _dashpots(scene: Scene, mass: np.ndarray, k: np.ndarray, walls: np.ndarray):
+    """(code, per-contact coefficients (N-1,), wall coefficients (2,)) of contacts.damping.
+
+    ``restitution`` becomes the linear dashpot whose two-body restitution is e
+    (:func:`granular_chain.restitution.choose_damping`), with the contact's reduced
+    mass, or the end granule's mass for a wall (a wall is an infinite mass).
+    """
+    spec = scene.contacts.damping
+    N = mass.size
+    if spec is None:
+        return DAMPING_NONE, np.zeros(max(N - 1, 0)), np.zeros(2)
+    if spec.model != "restitution":
+        code = DAMPING_LINEAR if spec.model == "linear" else DAMPING_VISCOELASTIC
+        return code, np.full(max(N - 1, 0), float(spec.coefficient)), np.full(2, float(spec.coefficient))
+    from .restitution import choose_damping
+    tensile = bool(scene.contacts.tensile)
+    mu = mass[:-1] * mass[1:] / (mass[:-1] + mass[1:])
+    c = np.array([choose_damping(spec.value, float(kk), float(m), tensile)
+                  for kk, m in zip(k, mu)])
+    wall_c = np.zeros(2)
+    for side, (j, end) in {"left": (0, mass[0]), "right": (1, mass[-1])}.items():
+        if getattr(scene.walls, side) is not None:
+            wall_c[j] = choose_damping(spec.value, float(walls[3 * j + 1]), float(end), tensile)
+    return DAMPING_LINEAR, np.ascontiguousarray(c, dtype=np.float64), wall_c
+
+
+def _body_force(scene: Scene, mass: np.ndarray) -> np.ndarray:
+    """Force on each granule along +x, shape (N,): m_i g direction, or the given values."""
+    body = scene.body_force
+    if body is None:
+        return np.zeros(mass.size)
+    if body.g is not None:
+        return mass * (float(body.g) * body.direction)
+    return _per(body.force, mass.size)
+
+
+def _wall_motion(scene: Scene) -> np.ndarray:
+    """(kind, p1, p2) of the left and right wall, shape (2, 3) (zeros: fixed)."""
+    motion = np.zeros((2, 3))
+    for j, side in enumerate(("left", "right")):
+        wall = getattr(scene.walls, side)
+        m = wall.motion if wall is not None else None
+        if m is None:
+            continue
+        if m.velocity is not None:
+            motion[j] = (WALL_VELOCITY, m.velocity, 0.0)
+        elif m.sine is not None:
+            motion[j] = (WALL_SINE, m.sine.amplitude, m.sine.frequency)
+        else:
+            motion[j] = (WALL_PULSE, m.pulse.velocity, m.pulse.duration)
+    return motion
 
 
 def _contacts_with_walls(model: Model):

@@ -13,7 +13,7 @@ import numpy as np
 
 from .codes import Status
 
-__all__ = ["Status", "Event", "EnergyLedger", "Result"]
+__all__ = ["Status", "Event", "EnergyLedger", "Result", "TERMS_ADDED", "ledger_balance"]
 
 
 def _need(module: str, extra: str, what: str):
@@ -55,8 +55,9 @@ class Event:
 class EnergyLedger:
     """Energy bookkeeping at each output frame, all arrays of shape (F,).
 
-    ``initial = kinetic + potential + coulomb + viscous`` holds up to the
-    integrator's error, reported as :attr:`balance_error`.
+    ``initial + wall_work + body_work = kinetic + potential + coulomb + viscous
+    + contact_dissipated`` holds up to the integrator's error, reported as
+    :attr:`balance_error`.
 
     Attributes
     ----------
@@ -66,6 +67,12 @@ class EnergyLedger:
         Energy dissipated so far by kinetic (Coulomb) and hydrodynamic friction (>= 0).
     initial : float
         Kinetic plus elastic energy at t = 0.
+    contact_dissipated : ndarray
+        Energy dissipated so far by the contacts' dashpots (>= 0; zeros when elastic).
+    wall_work : ndarray
+        Work done on the chain so far by moving walls (either sign; zeros when fixed).
+    body_work : ndarray
+        Work done on the chain so far by body forces, sum_i f_i u_i (either sign).
     """
 
     kinetic: np.ndarray
@@ -76,32 +83,71 @@ class EnergyLedger:
     #: Largest relative |balance| over frames that were streamed to writers and not
     #: kept here (None when every frame is kept); :attr:`balance_error` includes it.
     streamed_error: Optional[float] = None
+    contact_dissipated: Optional[np.ndarray] = None
+    wall_work: Optional[np.ndarray] = None
+    body_work: Optional[np.ndarray] = None
+
+    def __post_init__(self):
+        for name in TERMS_ADDED:
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros_like(np.asarray(self.kinetic, dtype=np.float64)))
 
     @property
     def balance(self) -> np.ndarray:
-        """kinetic + potential + coulomb + viscous - initial, shape (F,)."""
-        return self.kinetic + self.potential + self.coulomb + self.viscous - self.initial
+        """kinetic + potential + coulomb + viscous + contact_dissipated - wall_work
+        - body_work - initial, shape (F,)."""
+        return ledger_balance(self.kinetic, self.potential, self.coulomb, self.viscous,
+                              self.contact_dissipated, self.wall_work, self.body_work,
+                              self.initial)
+
+    @property
+    def scale(self) -> float:
+        """Energy the balance is measured against: the initial energy, or, for a run
+        that starts with none (a column settling, a chain at rest driven by a wall),
+        the largest energy the ledger holds at any frame."""
+        if self.initial > 0 or self.kinetic.size == 0:
+            return self.initial if self.initial > 0 else 1.0
+        held = max(float(np.max(np.abs(getattr(self, name)))) for name in (
+            "kinetic", "potential", "coulomb", "viscous", *TERMS_ADDED))
+        return held if held > 0 else 1.0
 
     @property
     def balance_error(self) -> float:
-        """Largest |balance| over the frames, relative to the initial energy."""
+        """Largest |balance| over the frames, relative to :attr:`scale`."""
         streamed = self.streamed_error or 0.0
         if self.kinetic.size == 0:
             return streamed
-        scale = self.initial if self.initial > 0 else 1.0
-        return max(float(np.max(np.abs(self.balance)) / scale), streamed)
+        return max(float(np.max(np.abs(self.balance)) / self.scale), streamed)
 
     def final(self) -> dict:
-        return {
+        """The ledger's last frame (what summary.json lists under ``energy``)."""
+        out = {
             "kinetic": float(self.kinetic[-1]),
             "potential": float(self.potential[-1]),
             "friction_dissipated": float(self.coulomb[-1]),
             "viscous_dissipated": float(self.viscous[-1]),
+            "contact_dissipated": float(self.contact_dissipated[-1]),
+            "wall_work": float(self.wall_work[-1]),
+            "body_work": float(self.body_work[-1]),
             "initial": float(self.initial),
             "balance_error": float(self.balance[-1]),
-            "balance_error_relative": float(self.balance[-1] / (self.initial or 1.0)),
+            "balance_error_relative": float(self.balance[-1] / self.scale),
             "max_balance_error_relative": self.balance_error,
         }
+        return out
+
+
+#: Ledger terms of the dissipative contacts, body forces and driven walls (zeros
+#: when a scene has none of them).
+TERMS_ADDED = ("contact_dissipated", "wall_work", "body_work")
+
+
+def ledger_balance(kinetic, potential, coulomb, viscous, contact_dissipated, wall_work,
+                   body_work, initial):
+    """Energy balance of the ledger's terms (arrays or floats, energy units): zero for
+    an exact run. Summed in this order everywhere (writers, streamed frames)."""
+    return (kinetic + potential + coulomb + viscous - initial
+            + contact_dissipated - wall_work - body_work)
 
 
 @dataclass
@@ -209,11 +255,13 @@ class Result:
 
     def ledger_frame(self):
         """The energy ledger as a ``pandas.DataFrame`` indexed by frame time ``t``, columns
-        kinetic, potential, coulomb, viscous, balance (the columns of energy.csv)."""
+        kinetic, potential, coulomb, viscous, contact_dissipated, wall_work, body_work,
+        balance (the columns of energy.csv)."""
         pd = _need("pandas", "analysis", "Result.ledger_frame")
         led = self.energy
         return pd.DataFrame({"kinetic": led.kinetic, "potential": led.potential,
                              "coulomb": led.coulomb, "viscous": led.viscous,
+                             **{name: getattr(led, name) for name in TERMS_ADDED},
                              "balance": led.balance}, index=pd.Index(self.t, name="t"))
 
     def summary(self) -> dict:

@@ -279,6 +279,42 @@ class Granules(_Strict):
         return self
 
 
+class Damping(_Strict):
+    """Energy lost inside a contact: a dashpot in parallel with the spring.
+
+    ``linear``: F_d = c d(delta)/dt (any exponent). ``viscoelastic``: F_d = A
+    d/dt(k delta^(n-1)) = A k (n-1) delta^(n-2) d(delta)/dt (for n = 5/2 the
+    Kuwabara-Kono / Brilliantov et al. viscoelastic Hertz force). ``restitution``:
+    the linear dashpot whose two-body coefficient of restitution is ``value``
+    (n = 2 only). The wall contacts are damped alike (the wall as an infinite mass).
+    """
+
+    model: Literal["linear", "viscoelastic", "restitution"] = Field(
+        ..., description="Dashpot law: linear (c), viscoelastic (A) or restitution (e).")
+    coefficient: Optional[NonNegative] = Field(
+        None, description="c (mass/time) for model linear, A (time) for model viscoelastic.")
+    value: Optional[Annotated[float, Num, Field(gt=0, le=1)]] = Field(
+        None, description="Coefficient of restitution e in (0, 1] of two touching granules "
+        "(model restitution; the granule and the wall for a wall contact).")
+
+    @model_validator(mode="after")
+    def _one_parameter(self) -> "Damping":
+        if self.model == "restitution":
+            if self.value is None:
+                raise _FieldProblem("value", "model restitution needs value: e in (0, 1]")
+            if self.coefficient is not None:
+                raise _FieldProblem("coefficient", "model restitution takes value (e), "
+                                    "not coefficient")
+        else:
+            if self.coefficient is None:
+                what = "c (mass/time)" if self.model == "linear" else "A (time)"
+                raise _FieldProblem("coefficient", f"model {self.model} needs coefficient: {what}")
+            if self.value is not None:
+                raise _FieldProblem("value", f"value (e) belongs to model restitution; model "
+                                    f"{self.model} takes coefficient")
+        return self
+
+
 class Contacts(_Strict):
     """One-sided power-law contacts: force k * delta^(n-1) while delta > 0."""
 
@@ -288,15 +324,72 @@ class Contacts(_Strict):
         1.0,
         description="Force coefficient k (force = k delta^(n-1)), one value or N-1 values, "
         "or 'hertz' to compute k = (4/3) E* sqrt(R*) from granules.material (then n = 5/2).")
+    damping: Optional[Damping] = Field(
+        None, description="Dissipation inside the contacts (absent: elastic contacts).")
+    tensile: Bool = Field(
+        False, description="false: the total contact force never pulls and the contact ends "
+        "when it reaches zero; true: the contact ends at overlap 0 and may pull before.")
+
+
+class Sine(_Strict):
+    """Oscillating wall: displacement amplitude * sin(2 pi frequency t)."""
+
+    amplitude: Finite = Field(..., description="Displacement amplitude (length).")
+    frequency: Positive = Field(..., description="Frequency f (1/time); angular 2 pi f.")
+
+
+class Pulse(_Strict):
+    """A piston: the wall moves at ``velocity`` for ``duration``, then stays."""
+
+    velocity: Finite = Field(..., description="Wall velocity along +x while it moves.")
+    duration: Positive = Field(..., description="How long the wall moves (time).")
+
+
+class WallMotion(_Strict):
+    """Prescribed motion of a wall along +x: give exactly one of the three."""
+
+    velocity: Optional[Finite] = Field(None, description="Constant wall velocity along +x.")
+    sine: Optional[Sine] = Field(None, description="Oscillation about the initial place.")
+    pulse: Optional[Pulse] = Field(None, description="A piston stroke at constant velocity.")
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> "WallMotion":
+        given = [k for k in ("velocity", "sine", "pulse") if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise _FieldProblem("", "give exactly one of velocity, sine or pulse"
+                                + (f" (got {', '.join(given)})" if given else ""))
+        return self
 
 
 class Wall(_Strict):
-    """A fixed wall beyond an end granule, with the same one-sided contact law."""
+    """A wall beyond an end granule, with the same one-sided contact law; fixed
+    unless it has a motion."""
 
     gap: Finite = Field(0.0, description="Gap between the wall and the end granule.")
     stiffness: Scale = Field(1.0, description="Force coefficient k of the wall contact.")
     exponent: Exponent = Field(
         2.0, description="Exponent n of the wall contact.")
+    motion: Optional[WallMotion] = Field(
+        None, description="Prescribed motion (absent: the wall is fixed).")
+
+
+class BodyForce(_Strict):
+    """A force on every granule along the chain axis: gravity ``m_i g`` or given forces."""
+
+    g: Optional[NonNegative] = Field(
+        None, description="Acceleration of gravity: granule i feels m_i g along direction.")
+    direction: Literal[-1, 1] = Field(
+        -1, description="-1: towards -x (towards the left wall), +1: towards +x.")
+    force: Optional[PerGranule] = Field(
+        None, description="Force on each granule along +x (one value or N values; "
+        "instead of g).")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> "BodyForce":
+        if (self.g is None) == (self.force is None):
+            raise _FieldProblem("", "give either g (with direction) or force, not "
+                                + ("both" if self.g is not None else "neither"))
+        return self
 
 
 class Walls(_Strict):
@@ -394,6 +487,8 @@ class Scene(_Strict):
     granules: Granules
     contacts: Contacts = Field(default_factory=Contacts)
     walls: Walls = Field(default_factory=Walls)
+    body_force: Optional[BodyForce] = Field(
+        None, description="Gravity or given forces along the chain axis (absent: none).")
     run: Run = Field(default_factory=Run)
     output: Output = Field(default_factory=Output)
 
@@ -449,6 +544,7 @@ class Scene(_Strict):
                     f"static threshold {sta.flat[i]} of granule {i} is below its kinetic "
                     f"friction {kin.flat[i]}")
         self._check_overlaps(n)
+        self._check_dissipation_and_forces(n)
         if "separation" in self.run.stop_conditions and self.run.stop_contact > n - 2:
             raise _FieldProblem("run.stop_contact",
                                 f"is {self.run.stop_contact} but contacts are numbered 0..{n - 2}")
@@ -478,6 +574,31 @@ class Scene(_Strict):
                                         f"or use run.stepper: {owner}")
         return self
 
+
+    def _check_dissipation_and_forces(self, n: int) -> None:
+        """Restitution is a property of linear contacts only; per-granule body
+        forces need one value per granule."""
+        damping = self.contacts.damping
+        if damping is not None and damping.model == "restitution":
+            exps = self.contacts.exponent
+            exps = list(exps) if isinstance(exps, list) else [exps]
+            for side in ("left", "right"):
+                wall = getattr(self.walls, side)
+                if wall is not None and wall.exponent != 2.0:
+                    raise _FieldProblem(
+                        "contacts.damping.model", f"restitution sets a linear dashpot from e, "
+                        f"which is exact for n = 2 only, but walls.{side}.exponent is "
+                        f"{wall.exponent}: use model linear or viscoelastic")
+            if any(e != 2.0 for e in exps):
+                bad = next(e for e in exps if e != 2.0)
+                raise _FieldProblem(
+                    "contacts.damping.model", f"restitution sets a linear dashpot from e, "
+                    f"which is exact for n = 2 only, but contacts.exponent is {bad}: use "
+                    f"model linear (c) or viscoelastic (A)")
+        body = self.body_force
+        if body is not None and isinstance(body.force, list) and len(body.force) != n:
+            raise _FieldProblem("body_force.force", f"has {len(body.force)} values but "
+                                f"granules.count is {n}")
 
     def _check_overlaps(self, n: int) -> None:
         """Initial overlaps must be smaller than the radii. Scalars stay scalars (0-d):
@@ -632,8 +753,8 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
             f"; known fields: {', '.join(known)}" if known else "")
         return SceneError(source, path, f"unknown field{hint}")
     if err_type == "value_error" and isinstance(first.get("ctx", {}).get("error"), _FieldProblem):
-        fp = first["ctx"]["error"]
-        return SceneError(source, fp.path, fp.problem)
+        fp = first["ctx"]["error"]  # a sub-model's validator names its field relative to it
+        return SceneError(source, ".".join(p for p in (path, fp.path) if p), fp.problem)
     if err_type == "union_tag_invalid":
         return SceneError(source, f"{path}.distribution", "must be uniform, normal or "
                           f"lognormal (got {first.get('ctx', {}).get('tag')!r})")

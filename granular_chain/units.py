@@ -22,8 +22,11 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
+from .laws.damping import DAMPING_LINEAR
+from .laws.wall_motion import WALL_PULSE, WALL_SINE, WALL_VELOCITY
+
 __all__ = ["scales", "scaled_parameters", "scaled_coulomb", "scaled_viscous", "speed_scale",
-           "internal_scales", "scaled_model", "UnitFactors", "unit_factors"]
+           "internal_scales", "scaled_model", "scaled_wall_motion", "dashpot_rate", "UnitFactors", "unit_factors"]
 
 
 def scales(m: float, k: float, n: float, v0: float) -> tuple[float, float]:
@@ -102,7 +105,8 @@ def internal_scales(model) -> Optional[tuple[float, float, float]]:
     A = (M / K0) ** (1.0 / n0) * V ** (2.0 / n0)
     B = (M / K0) ** (1.0 / n0) * V ** (2.0 / n0 - 1.0)
     rate = max(float(np.max(model.gamma * model.inv_mass)) * B,
-               float(np.max(model.eta * model.inv_mass)) * B / V)
+               float(np.max(model.eta * model.inv_mass)) * B / V,
+               dashpot_rate(model) * B)
     if rate > 1e3:
         B /= rate
         A /= rate
@@ -112,6 +116,15 @@ def internal_scales(model) -> Optional[tuple[float, float, float]]:
     if not (1e-100 < A < 1e100 and 1e-100 < B < 1e100 and 1e-100 < A / B < 1e100):
         return None
     return M, A, B
+
+
+def dashpot_rate(model) -> float:
+    """Largest damping rate c/m of a linear dashpot (1/time; 0 otherwise): a dashpot
+    far faster than the collision sets the time scale, as a drag does."""
+    if model.features.damping != DAMPING_LINEAR or model.count < 1:
+        return 0.0
+    c = np.concatenate([model.damping, model.wall_damping])
+    return float(np.max(c)) * float(np.max(model.inv_mass))
 
 
 def scaled_model(model, M: float, A: float, B: float):
@@ -127,11 +140,32 @@ def scaled_model(model, M: float, A: float, B: float):
     w[1] = w[1] * A ** (w[2] - 2.0) * B * B / M
     w[4] = w[4] * A ** (w[5] - 2.0) * B * B / M
     inv_F = (B / M) * (B / A)
+    # A linear dashpot c is a mass/time like gamma; a viscoelastic A is a time.
+    dashpot = (B / M) if model.features.damping == DAMPING_LINEAR else (1.0 / B)
     return dataclasses.replace(
         model, mass=model.mass / M, inv_mass=model.inv_mass * M, radius=model.radius / A,
         x0=model.x0 / A, v0=model.v0 * (B / A), d0=model.d0 / A,
         k=model.k * A ** (model.n - 2.0) * (B * B / M), walls=w, eta=model.eta * inv_F,
-        eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M))
+        eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M),
+        damping=model.damping * dashpot, wall_damping=model.wall_damping * dashpot,
+        body_force=model.body_force * inv_F, wall_motion=scaled_wall_motion(model.wall_motion, A, B))
+
+
+def scaled_wall_motion(motion: np.ndarray, A: float, B: float) -> np.ndarray:
+    """Wall motions (kind, p1, p2), shape (2, 3), in units of length A and time B:
+    velocities by B/A, an amplitude by 1/A, a frequency by B, a duration by 1/B."""
+    out = motion.copy()
+    for j in range(2):
+        kind = int(motion[j, 0])
+        if kind == WALL_VELOCITY:
+            out[j, 1] *= B / A
+        elif kind == WALL_SINE:
+            out[j, 1] /= A
+            out[j, 2] *= B
+        elif kind == WALL_PULSE:
+            out[j, 1] *= B / A
+            out[j, 2] /= B
+    return out
 
 
 class UnitFactors(NamedTuple):

@@ -195,7 +195,8 @@ def test_events_and_ledger_as_dataframes(run):
     led = result.ledger_frame()
     assert led.index.name == "t" and np.array_equal(led.index.values, result.t)
     assert np.array_equal(led["balance"].values, result.energy.balance)
-    assert list(led.columns) == ["kinetic", "potential", "coulomb", "viscous", "balance"]
+    assert list(led.columns) == ["kinetic", "potential", "coulomb", "viscous", "contact_dissipated",
+                                 "wall_work", "body_work", "balance"]
 
 
 # ---------------------------------------------------------------- plots at any N

@@ -150,14 +150,17 @@ def plot_energy(result, path, scene=None) -> Path:
     ax.plot(t, led.potential, label="elastic (contacts)")
     ax.plot(t, led.coulomb, label="dissipated, Coulomb")
     ax.plot(t, led.viscous, label="dissipated, viscous")
-    ax.plot(t, led.kinetic + led.potential + led.coulomb + led.viscous, "k--", lw=1,
-            label="sum")
+    for name, label in (("contact_dissipated", "dissipated, contacts"),
+                        ("wall_work", "work done by walls"), ("body_work", "work done by body forces")):
+        if np.any(getattr(led, name) != 0.0):
+            ax.plot(t, getattr(led, name), label=label)
+    ax.plot(t, led.balance + led.initial, "k--", lw=1,
+            label="sum (minus work done on the chain)")
     ax.axhline(led.initial, color="0.6", lw=0.8, zorder=0)
     ax.set_ylabel(elab)
     ax.legend(loc="best", fontsize="small")
     ax.set_title("energy ledger")
-    scale = led.initial if led.initial > 0 else 1.0
-    bx.plot(t, led.balance / scale, color="C3")
+    bx.plot(t, led.balance / led.scale, color="C3")
     bx.axhline(0.0, color="0.6", lw=0.8)
     bx.set_ylabel("balance / initial")
     bx.set_xlabel(tlab)

@@ -2,11 +2,14 @@
 
 ``energy.csv`` (one row per output frame)::
 
-    t,kinetic,potential,coulomb,viscous,balance
+    t,kinetic,potential,coulomb,viscous,contact_dissipated,wall_work,body_work,balance
 
 ``kinetic`` = sum m v^2/2, ``potential`` = elastic energy of the contacts, ``coulomb`` and
-``viscous`` = energy dissipated so far by kinetic and hydrodynamic friction (>= 0), and
-``balance`` = kinetic + potential + coulomb + viscous - initial, the integrator's
+``viscous`` = energy dissipated so far by kinetic and hydrodynamic friction (>= 0),
+``contact_dissipated`` = energy dissipated so far by the contacts' dashpots (>= 0),
+``wall_work`` and ``body_work`` = work done on the chain so far by moving walls and by
+body forces, and ``balance`` = kinetic + potential + coulomb + viscous +
+contact_dissipated - wall_work - body_work - initial, the integrator's
 energy error (0 for an exact integrator). Numbers are written with 17 significant
 digits, so reading them back gives the same doubles.
 
@@ -30,17 +33,19 @@ from typing import Optional
 
 import numpy as np
 
+from ..result import TERMS_ADDED
+
 __all__ = ["write_energy_csv", "write_events_csv", "write_tables", "ENERGY_COLUMNS",
            "EnergyTable"]
 
-ENERGY_COLUMNS = ("t", "kinetic", "potential", "coulomb", "viscous", "balance")
+ENERGY_COLUMNS = ("t", "kinetic", "potential", "coulomb", "viscous", *TERMS_ADDED, "balance")
 
 
 def write_energy_csv(result, folder) -> Path:
     """Write ``folder/energy.csv`` from ``result.t`` and ``result.energy``."""
     led = result.energy
     table = np.column_stack([result.t, led.kinetic, led.potential, led.coulomb, led.viscous,
-                             led.balance])
+                             *(getattr(led, name) for name in TERMS_ADDED), led.balance])
     path = Path(folder) / "energy.csv"
     np.savetxt(path, table, delimiter=",", fmt="%.17g", header=",".join(ENERGY_COLUMNS),
                comments="")
@@ -81,8 +86,8 @@ class EnergyTable:
         self._fh.flush()
 
     def write_frame(self, frame) -> None:
-        balance = frame.kinetic + frame.potential + frame.coulomb + frame.viscous - frame.initial
-        values = (frame.t, frame.kinetic, frame.potential, frame.coulomb, frame.viscous, balance)
+        values = (frame.t, frame.kinetic, frame.potential, frame.coulomb, frame.viscous,
+                  *(getattr(frame, name) for name in TERMS_ADDED), frame.balance)
         self._fh.write(",".join("%.17g" % v for v in values) + "\n")
 
     def close(self, result=None) -> None:

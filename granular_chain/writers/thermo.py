@@ -1,7 +1,7 @@
 """The thermo log (LAMMPS' ``thermo N``): a line of run-wide numbers every few steps.
 
 Each line holds the step, the time, the kinetic and elastic energy, the energy
-dissipated so far (Coulomb plus viscous), the energy ledger's relative error,
+dissipated so far (Coulomb, viscous and the contacts' dashpots), the energy ledger's relative error,
 the number of closed contacts (walls included) and the number of granules
 sliding (moving granules that feel Coulomb friction). The lines go to
 ``thermo.csv`` as the run goes and, when asked, to the terminal: a table with
@@ -85,7 +85,8 @@ class ThermoLog:
             closed += int(m.features.right_wall and w[3] + u[-1] > 0.0)
         sliding = int(np.count_nonzero(self._coulomb & (frame.v != 0.0)))
         return (frame.step, frame.t, frame.kinetic, frame.potential,
-                frame.coulomb + frame.viscous, frame.balance_error, closed, sliding)
+                frame.coulomb + frame.viscous + frame.contact_dissipated, frame.balance_error,
+                closed, sliding)
 
     def write_frame(self, frame) -> None:
         if self.dt is not None and frame.t < self._last_t + self.dt:

@@ -16,7 +16,8 @@ dimensionless unit ``"1"``, physical ones SI):
     Dimension scales: frame times, and granule indices 0..N-1 from the left.
 ``x``, ``v``, ``f`` (time, granule)
     Centre positions, velocities, net contact force (neighbours and walls).
-``kinetic``, ``potential``, ``coulomb``, ``viscous``, ``balance`` (time)
+``kinetic``, ``potential``, ``coulomb``, ``viscous``, ``contact_dissipated``, ``wall_work``,
+``body_work``, ``balance`` (time)
     The energy ledger (the columns of energy.csv).
 ``mass``, ``radius``, ``friction_kinetic``, ``friction_static``, ``friction_viscous`` (granule)
     The per-granule values the run used (drawn values, for scenes with distributions).
@@ -44,6 +45,8 @@ from typing import Optional
 import h5py
 import numpy as np
 
+from ..result import TERMS_ADDED, ledger_balance
+
 __all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
            "to_xarray", "FRAME_FIELDS", "LEDGER_FIELDS"]
 
@@ -69,7 +72,11 @@ LEDGER_FIELDS = {
     "potential": "elastic energy of the contacts",
     "coulomb": "energy dissipated by kinetic (Coulomb) friction so far",
     "viscous": "energy dissipated by hydrodynamic friction so far",
-    "balance": "kinetic + potential + coulomb + viscous - initial energy (integrator error)",
+    "contact_dissipated": "energy dissipated by the contacts' dashpots so far",
+    "wall_work": "work done on the chain by moving walls so far",
+    "body_work": "work done on the chain by body forces so far",
+    "balance": "kinetic + potential + coulomb + viscous + contact_dissipated - wall_work "
+               "- body_work - initial energy (integrator error)",
 }
 # (granule,) arrays of the model: name -> (Model attribute, kind, long_name)
 _GRANULE_FIELDS = {
@@ -244,13 +251,17 @@ class TrajectoryWriter:
         for i, dim in enumerate(dims):
             ds.dims[i].attach_scale(self._h5[dim])
 
-    def write_frame(self, t, x, v, f, kinetic, potential, coulomb, viscous) -> None:
-        """Append one frame: time, state arrays of shape (N,) and the four ledger terms."""
+    def write_frame(self, t, x, v, f, kinetic, potential, coulomb, viscous,
+                    contact_dissipated=0.0, wall_work=0.0, body_work=0.0) -> None:
+        """Append one frame: time, state arrays of shape (N,) and the ledger terms
+        (energy units; the last three are zero in a scene without dashpots, moving
+        walls or body forces)."""
         i = self._fill
         self._t[i] = t
         for buf, arr in zip(self._xvf.values(), (x, v, f)):
             buf[i] = arr
-        for buf, value in zip(self._led.values(), (kinetic, potential, coulomb, viscous)):
+        for buf, value in zip(self._led.values(), (kinetic, potential, coulomb, viscous,
+                                                   contact_dissipated, wall_work, body_work)):
             buf[i] = value
         self._fill += 1
         if self._fill == self._rows:
@@ -279,8 +290,8 @@ class TrajectoryWriter:
         step = 2 ** 16  # the ledger is read back in slices: memory stays bounded
         for a in range(0, self.frames, step):
             b = min(a + step, self.frames)
-            k, p, c, w = (h5[name][a:b] for name in ("kinetic", "potential", "coulomb", "viscous"))
-            bal[a:b] = k + p + c + w - result.energy.initial  # EnergyLedger.balance's order
+            terms = (h5[name][a:b] for name in LEDGER_FIELDS if name != "balance")
+            bal[a:b] = ledger_balance(*terms, result.energy.initial)
         self._put("x_final", result.x_final, ("granule",), "length", "final granule position")
         self._put("v_final", result.v_final, ("granule",), "velocity", "final granule velocity")
         self._write_events(result.events)
@@ -335,7 +346,8 @@ class TrajectoryFrames:
 
     def write_frame(self, frame) -> None:
         self.writer.write_frame(frame.t, frame.x, frame.v, frame.f, frame.kinetic,
-                                frame.potential, frame.coulomb, frame.viscous)
+                                frame.potential, frame.coulomb, frame.viscous,
+                                frame.contact_dissipated, frame.wall_work, frame.body_work)
 
     def close(self, result=None) -> None:
         """With the run's Result: the final state, events and status; without
@@ -360,7 +372,8 @@ def write_trajectory(result, folder: Path, scene=None) -> Path:
                           model=run_model(result, scene)) as w:
         for i in range(result.t.size):
             w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
-                          led.potential[i], led.coulomb[i], led.viscous[i])
+                          led.potential[i], led.coulomb[i], led.viscous[i],
+                          led.contact_dissipated[i], led.wall_work[i], led.body_work[i])
         w.close(result)
     return w.path
 
@@ -396,7 +409,8 @@ def read_h5(path, summary: Optional[dict] = None):
         g = h5["energy"] if legacy else h5
         initial = float(g.attrs["initial"] if legacy else a["energy_initial"])
         energy = EnergyLedger(*(g[name][...] for name in ("kinetic", "potential", "coulomb",
-                                                          "viscous")), initial=initial)
+                                                          "viscous")), initial=initial,
+                              **{name: g[name][...] for name in TERMS_ADDED if name in g})
         if legacy:
             ev = h5["events"] if "events" in h5 else None
             cols = (ev["t"][...], ev["kind"][...], ev["index"][...]) if ev else ((), (), ())

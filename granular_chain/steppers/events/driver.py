@@ -516,7 +516,10 @@ def _restore_log(log: FrameLog, state: dict) -> None:
         return
     kept = {}
     for name in log._FIELDS:
-        first, last = state[f"log_first_{name}"], state[f"log_last_{name}"]
+        if f"log_first_{name}" not in state:  # a ledger term the checkpoint predates: 0
+            first = last = 0.0
+        else:
+            first, last = state[f"log_first_{name}"], state[f"log_last_{name}"]
         if np.ndim(first) == 0:  # (numpy.savez turns scalars into 0-d arrays)
             first, last = np.asarray(first).item(), np.asarray(last).item()
         kept[name] = [first, last] if log.count >= 2 else [first]

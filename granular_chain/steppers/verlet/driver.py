@@ -389,9 +389,8 @@ class VerletRun:
             setattr(self, name, bool(value) if name == "short_taken" else (
                 float(value) if name in ("t_now", "dt_now", "next_thermo", "next_ck", "e0")
                 else int(value)))
-        first = Frame(*(np.asarray(state[f"first_{name}"]).item() if np.ndim(state[f"first_{name}"])
-                        == 0 else np.asarray(state[f"first_{name}"]) for name in FrameLog._FIELDS),
-                      initial=self.e0)
+        first = Frame(**{name: _stored(state, f"first_{name}") for name in FrameLog._FIELDS
+                         if f"first_{name}" in state}, initial=self.e0)
         self.log.resume(int(state["frames"]), float(state["max_error"]), first)
         if self.event_log is not None:
             from ...result import Event
@@ -669,3 +668,7 @@ def _progress_bar(progress: Optional[bool], total: int):
                 file=sys.stderr, leave=False)
 
 
+def _stored(state: dict, key: str):
+    """A checkpoint's value: a Python number for a 0-d entry, else the array."""
+    value = np.asarray(state[key])
+    return value.item() if value.ndim == 0 else value

@@ -1,0 +1,100 @@
+"""Normal contact dissipation: the dashpot in parallel with the one-sided spring.
+
+A closed contact of overlap ``delta > 0`` and overlap rate ``w = d(delta)/dt``
+(positive while the granules approach) pushes the granules apart with::
+
+    F = k delta^(n-1) + D(delta, w)
+
+    D = c w                                 linear dashpot (any n)
+    D = A d/dt (k delta^(n-1))
+      = A k (n-1) delta^(n-2) w             viscoelastic (n = 5/2: Kuwabara-Kono,
+                                            Brilliantov et al. 1996)
+
+``tensile = 0`` (the default of a scene): the total force never pulls,
+``F = max(0, k delta^(n-1) + D)``, and the contact ends when it reaches zero
+(Schwager and Poeschel, Granular Matter 9, 465 (2007)). ``tensile = 1``: the
+contact ends at ``delta = 0`` and may pull while the granules part.
+
+The power the dashpot takes from the motion is ``D_eff * w >= 0`` with
+``D_eff = F - k delta^(n-1)`` the part of the force above the spring's, so a
+clipped force still dissipates (``D_eff = -k delta^(n-1)`` then, ``w < 0``).
+
+``damping`` is a compile-time constant of the kernels (DAMPING_NONE compiles
+no dashpot at all); ``coefficient`` is ``c`` (mass/time) or ``A`` (time).
+"""
+
+import math
+
+import numba
+
+from .contact import LAW_HERTZ, LAW_LINEAR, contact_force
+
+DAMPING_NONE = 0
+DAMPING_LINEAR = 1
+DAMPING_VISCOELASTIC = 2
+
+__all__ = ["DAMPING_NONE", "DAMPING_LINEAR", "DAMPING_VISCOELASTIC", "dashpot_force",
+           "damped_contact_force"]
+
+
+@numba.njit(inline="always", cache=True)
+def dashpot_force(law, damping, d, w, k, n, coefficient):
+    """Dashpot force ``D`` of a contact of overlap ``d > 0`` and rate ``w`` (0 if d <= 0).
+
+    Parameters
+    ----------
+    law : int
+        Contact law (:mod:`.contact`); selects ``delta^(n-2)`` as 1, 1/sqrt(d) or a power.
+    damping : int
+        DAMPING_NONE, DAMPING_LINEAR or DAMPING_VISCOELASTIC.
+    d, w : float
+        Overlap (length) and its rate d(delta)/dt (length/time).
+    k, n : float
+        Force coefficient and exponent of the contact's spring.
+    coefficient : float
+        ``c`` (force/speed) for the linear dashpot, ``A`` (time) for the viscoelastic one.
+
+    Returns
+    -------
+    float
+        Force along the pushing-apart direction (force units); negative while
+        the contact opens (w < 0).
+    """
+    if damping == DAMPING_NONE or d <= 0.0:
+        return 0.0
+    if damping == DAMPING_LINEAR:
+        return coefficient * w
+    # viscoelastic: A k (n-1) delta^(n-2) w
+    if law == LAW_LINEAR:
+        return coefficient * k * w
+    if law == LAW_HERTZ:
+        return coefficient * k * 1.5 * math.sqrt(d) * w
+    return coefficient * k * (n - 1.0) * d ** (n - 2.0) * w
+
+
+@numba.njit(inline="always", cache=True)
+def damped_contact_force(law, damping, tensile, d, w, k, n, coefficient):
+    """Total force of a contact with spring and dashpot (pushing apart when positive).
+
+    Zero unless ``d > 0``; ``max(0, spring + dashpot)`` unless ``tensile``.
+    With ``damping == DAMPING_NONE`` this is :func:`.contact.contact_force`.
+
+    Parameters
+    ----------
+    law, damping, d, w, k, n, coefficient
+        As in :func:`dashpot_force`.
+    tensile : int
+        1: the force may pull while the contact is closed (d > 0).
+
+    Returns
+    -------
+    float
+        Contact force (force units).
+    """
+    f = contact_force(law, d, k, n)
+    if damping == DAMPING_NONE:
+        return f
+    f += dashpot_force(law, damping, d, w, k, n, coefficient)
+    if tensile:
+        return f
+    return max(f, 0.0)
