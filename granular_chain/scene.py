@@ -753,8 +753,12 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
             f"; known fields: {', '.join(known)}" if known else "")
         return SceneError(source, path, f"unknown field{hint}")
     if err_type == "value_error" and isinstance(first.get("ctx", {}).get("error"), _FieldProblem):
-        fp = first["ctx"]["error"]  # a sub-model's validator names its field relative to it
-        return SceneError(source, ".".join(p for p in (path, fp.path) if p), fp.problem)
+        fp = first["ctx"]["error"]
+        # Validators of the scene's sections name the whole path; those of the small
+        # models (damping, wall motion, body force) name their field relative to them.
+        whole = fp.path if not path or fp.path.startswith(path) else ".".join(
+            p for p in (path, fp.path) if p)
+        return SceneError(source, whole, fp.problem)
     if err_type == "union_tag_invalid":
         return SceneError(source, f"{path}.distribution", "must be uniform, normal or "
                           f"lognormal (got {first.get('ctx', {}).get('tag')!r})")
