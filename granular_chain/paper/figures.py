@@ -51,6 +51,7 @@ import numpy as np
 
 from .. import paper
 from ..codes import Status
+from ..plotting import label_contours, signed
 from ..two_granules import OUTCOMES, Outcome, collide, collision_map
 
 __all__ = [
@@ -179,11 +180,11 @@ def fig_velocity(out: Path, m: int = 301) -> Path:
     eta, r = _iia_curves(m, 1.2)
     emax = paper.iia_eta_max()
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    ax.plot(eta, r[2.5]["v1"], "k-", lw=1.8, label="engine, n = 5/2 (Hertz spheres)")
-    ax.plot(eta, r[2.0]["v1"], "k--", lw=1.8, label="engine, n = 2")
+    ax.plot(eta, r[2.5]["v1"], "k-", lw=1.8, label="engine, $n = 5/2$ (Hertz spheres)")
+    ax.plot(eta, r[2.0]["v1"], "k--", lw=1.8, label="engine, $n = 2$")
     ec = eta[eta <= emax]
     ax.plot(ec, paper.iia_v1s(ec), color="tab:red", ls=":", lw=2.5,
-            label=r"closed form $-\eta\pi/(2\sqrt{2})$, n = 2")
+            label=r"closed form $-\eta_2\pi/(2\sqrt{2})$, $n = 2$")
     ax.axvline(emax, color="0.6", lw=0.8)
     ax.text(emax + 0.01, -0.05, r"$(1+\pi^2/8)^{-1/2}$" + f" = {emax:.4f}", fontsize=8)
     ax.set_xlabel(r"friction on granule 2, $\eta_2$ (scaled: $m v_0^2/A$)")
@@ -205,14 +206,14 @@ def fig_energy(out: Path, m: int = 301) -> Path:
     eta, r = _iia_curves(m, 1.2)
     emax = paper.iia_eta_max()
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    ax.plot(eta, r[2.5]["energy"], "k-", lw=1.8, label="engine, n = 5/2 (Hertz spheres)")
-    ax.plot(eta, r[2.0]["energy"], "k--", lw=1.8, label="engine, n = 2")
+    ax.plot(eta, r[2.5]["energy"], "k-", lw=1.8, label="engine, $n = 5/2$ (Hertz spheres)")
+    ax.plot(eta, r[2.0]["energy"], "k--", lw=1.8, label="engine, $n = 2$")
     ec = eta[eta <= emax]
     ax.plot(ec, paper.iia_energy_ratio(ec), color="tab:red", ls=":", lw=2.5,
-            label="closed form $E^{(s)}/E_0$, n = 2")
+            label="closed form $E^{(s)}/E_0$, $n = 2$")
     e_min, r_min = (float(v) for v in paper.iia_energy_minimum())
     ax.plot([e_min], [r_min], "o", color="tab:red", ms=4)
-    ax.annotate(f"minimum {r_min:.4f} at eta = {e_min:.4f}", (e_min, r_min),
+    ax.annotate(f"minimum {r_min:.4f} at $\\eta_2 = {e_min:.4f}$", (e_min, r_min),
                 (e_min - 0.25, r_min - 0.12), fontsize=8,
                 arrowprops={"arrowstyle": "->", "lw": 0.6})
     ax.axvline(emax, color="0.6", lw=0.8)
@@ -308,7 +309,7 @@ def fig_timecompare2(out: Path, m: int = 300) -> Path:
     ax.set_xlim(eta[0], eta[-1])
     ax.set_xlabel(r"friction on granule 1, $\eta_1$ (scaled; $\eta_2 = 0$)")
     ax.set_ylabel(r"time (units of $B = A/v_0$)")
-    ax.set_title("Fig. timecompare2: stopping time of granule 1, n = 2")
+    ax.set_title("Fig. timecompare2: stopping time of granule 1, $n = 2$")
     ax.legend(fontsize=8, loc="lower left")
     ax.grid(alpha=0.3, which="both")
     return _save(fig, out, "timecompare2")
@@ -338,7 +339,7 @@ def fig_timecompare3(out: Path, m: int = 220) -> Path:
             label=r"small $\eta$: $(\pi\eta/\sqrt{2})^{1/2} - \eta$")
     ax.plot(eta, ts, "k--", lw=1.4, label="granule 1 stops again (Eq. motionx1)")
     ax.axvline(eta_b, color="tab:red", lw=0.8)
-    ax.text(eta_b + 0.005, 0.15, f"$\\eta$ = {eta_b:.4f}\n(printed ~0.22)", fontsize=8,
+    ax.text(eta_b + 0.005, 0.15, f"$\\eta_1 = {eta_b:.4f}$\n(printed ~0.22)", fontsize=8,
             color="tab:red")
     ax.axvline(eta_c, color="0.5", lw=0.8, ls="--")
     ax.text(eta_c - 0.115, 0.9, f"slip limit {eta_c:.4f}\n(printed 0.439)", fontsize=8,
@@ -347,7 +348,7 @@ def fig_timecompare3(out: Path, m: int = 220) -> Path:
     ax.set_ylim(0, 1.0)
     ax.set_xlabel(r"friction on granule 1, $\eta_1$ (scaled; $\eta_2 = 0$)")
     ax.set_ylabel(r"time after $t_0$ (units of $B = A/v_0$)")
-    ax.set_title("Fig. timecompare3: end of the collision, n = 2")
+    ax.set_title("Fig. timecompare3: end of the collision, $n = 2$")
     ax.legend(fontsize=8, loc="upper left")
     ax.grid(alpha=0.3)
     return _save(fig, out, "timecompare3")
@@ -362,12 +363,12 @@ def fig_finalv1(out: Path, m: int = 401) -> Path:
     plt = _plt()
     eta = _eta_axis(0.0, 0.35, m)
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    for n, ls, lab in ((2.0, "--", "engine, n = 2"), (2.5, "-", "engine, n = 5/2")):
+    for n, ls, lab in ((2.0, "--", "engine, $n = 2$"), (2.5, "-", "engine, $n = 5/2$")):
         r = collision_values(n, [(e, 0.0, 0.0, 0.0) for e in eta])
         ax.plot(eta, r["v1"], color="k", ls=ls, lw=1.8, label=lab)
     e_star, v_star = (float(v) for v in paper.iib_max_backscatter_exact(dps=12))
     ax.plot([e_star], [-v_star], "o", color="tab:red", ms=4)
-    ax.annotate(f"max backscattering {100 * v_star:.3f} %\nat eta = {e_star:.4f} (n = 2)",
+    ax.annotate(f"max backscattering {100 * v_star:.3f} %\nat $\\eta_1 = {e_star:.4f}$ ($n = 2$)",
                 (e_star, -v_star), (e_star + 0.05, -v_star + 0.004), fontsize=8,
                 arrowprops={"arrowstyle": "->", "lw": 0.6})
     eta_b = float(paper.iib_backscatter_threshold_eta_exact())
@@ -407,19 +408,23 @@ def fig_hertz(out: Path, grid: int = 100, processes: int = 2, data: Optional[dic
     # (the nonmonotonic Fig. finalv1), coarse ones elsewhere
     level_sets = (np.r_[0.005, 0.01, 0.015, 0.02, np.arange(0.05, 0.66, 0.05)],
                   np.arange(0.1, 1.0, 0.1), np.r_[0.3, 0.35, np.arange(0.4, 1.0, 0.1)])
+    lines = []
     for ax, (f, lab), levels in zip(axes, fields, level_sets):
         z = np.where(both, f, np.nan)
         im = ax.imshow(z, origin="lower", extent=ext, aspect="auto", cmap="Greys",
                        interpolation="nearest")
-        cs = ax.contour(e1, e2, z, levels=levels, colors="tab:blue", linewidths=0.8)
-        ax.clabel(cs, fontsize=6, fmt="%.3g")
+        lines.append(ax.contour(e1, e2, z, levels=levels, colors="tab:blue", linewidths=0.8))
         ax.contour(e1, e2, both.astype(float), levels=[0.5], colors="tab:red", linewidths=1.0)
         fig.colorbar(im, ax=ax, label=lab, shrink=0.9)
         ax.set_xlabel(r"friction on granule 1, $\eta_1$ (scaled)")
         ax.set_ylabel(r"friction on granule 2, $\eta_2$ (scaled)")
         ax.set_title(lab.split(" (")[0], fontsize=10)
-    fig.suptitle(f"Fig. hertz: n = 5/2, end of collision where both granules move "
-                 f"({len(e1)} x {len(e2)} event-stepper collisions)", fontsize=11)
+    fig.suptitle(f"Fig. hertz: $n = 5/2$, end of collision where both granules move "
+                 f"(${len(e1)} \\times {len(e2)}$ event-stepper collisions)", fontsize=11)
+    # labelled once every panel and colour bar is in place: the labels are kept
+    # apart in pixels, which the layout fixes
+    for ax, cs in zip(axes, lines):
+        label_contours(ax, cs)
     return _save(fig, out, "hertz")
 
 
@@ -440,20 +445,20 @@ def fig_finalv1m5(out: Path, m: int = 281) -> Path:
     for delta, ls in ((0.1, "--"), (0.0, ":"), (-0.1, "-")):
         g1, g2 = paper.iii_gammas(gam, delta)
         r = collision_values(2.0, [(0.0, 0.0, a, b) for a, b in zip(g1, g2)])
+        order = (r" ($\gamma_1 > \gamma_2$)" if delta > 0
+                 else r" ($\gamma_1 < \gamma_2$)" if delta < 0 else "")
         ax.plot(gam, r["v1"], color="k", ls=ls, lw=1.8,
-                label=f"engine, $\\delta$ = {delta:+.1f}" + (" ($\\gamma_1 > \\gamma_2$)" if delta > 0
-                                                          else " ($\\gamma_1 < \\gamma_2$)" if delta < 0
-                                                          else ""))
+                label=f"engine, $\\delta = {signed(delta)}$" + order)
         if delta != 0.0:
             ax.plot(gam, paper.iii_v1s_first_order(gam, delta), color="tab:red", ls=ls, lw=0.9,
-                    label=f"first order in $\\delta$, $\\delta$ = {delta:+.1f}")
+                    label=f"first order in $\\delta$, $\\delta = {signed(delta)}$")
     g_star = float(paper.iii_optimal_gamma_zeroth()[0])
     ax.plot([g_star], [-0.125], "o", color="tab:red", ms=4)
-    ax.annotate(f"$\\delta$ = 0 optimum: $\\gamma$ = {g_star:.4f}, $v_1 = -1/8$", (g_star, -0.125),
+    ax.annotate(f"$\\delta = 0$ optimum: $\\gamma = {g_star:.4f}$, $v_1 = -1/8$", (g_star, -0.125),
                 (g_star - 0.1, -0.03), fontsize=8, arrowprops={"arrowstyle": "->", "lw": 0.6})
     ax.set_xlabel(r"mean hydrodynamic friction $\gamma$ (scaled: $m/B$)")
     ax.set_ylabel(r"$v_1^{(s)}$ at end of collision (units of $v_0$)")
-    ax.set_title(r"Fig. finalv1m5: $\gamma_{1,2} = \gamma(1 \pm \delta)$, n = 2")
+    ax.set_title(r"Fig. finalv1m5: $\gamma_{1,2} = \gamma(1 \pm \delta)$, $n = 2$")
     ax.set_xlim(0, 2.85)
     ax.legend(fontsize=7, loc="lower right")
     ax.grid(alpha=0.3)

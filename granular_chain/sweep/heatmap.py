@@ -8,10 +8,15 @@ from typing import Optional
 
 import numpy as np
 
+from ..plotting import label_contours, tex_name
 from .grid import SweepError
 from .resume import read_results
 
 __all__ = ["plot_heatmap", "slug"]
+
+# colour-bar labels of the quantities whose name is not a symbol (v1 -> $v_1$ is made
+# by tex_name)
+_QUANTITY_LABELS = {"energy_ratio": r"$E/E_0$ at the end", "E0": r"$E_0$"}
 
 
 def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional[dict] = None,
@@ -75,13 +80,15 @@ def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional
         colorbar.ax.set_yticklabels(cats, fontsize=7)
     else:
         im = ax.pcolormesh(xs, ys, grid, cmap="Greys" if mask else "viridis", shading="nearest")
-        fig.colorbar(im, ax=ax, label=label or quantity)
+        fig.colorbar(im, ax=ax, label=label or _QUANTITY_LABELS.get(quantity, tex_name(quantity)))
         if contours and xs.size > 3 and ys.size > 3 and np.isfinite(grid).sum() > 10:
             try:
                 cs = ax.contour(xs, ys, grid, levels=8, colors="tab:red", linewidths=0.7)
-                ax.clabel(cs, fontsize=6, fmt="%.3g")
             except (ValueError, TypeError):
-                pass
+                cs = None
+            if cs is not None:
+                fig.tight_layout()  # the labels are kept apart in pixels: lay out first
+                label_contours(ax, cs)
     if not seen.all():
         ax.text(0.01, 0.01, f"{int((~seen).sum())} points not computed", transform=ax.transAxes,
                 fontsize=7)

@@ -16,6 +16,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..plotting import tex_name
 from .boundaries import PARAMS, _Problem, _refine
 from .outcomes import OUTCOMES
 
@@ -392,11 +393,11 @@ def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str
             ax.plot(*corner[0], "ro", ms=4)
     handles = [plt.Rectangle((0, 0), 1, 1, color=colours[i]) for i in range(len(OUTCOMES))]
     present = sorted(set(int(k) for k in np.unique(cm.outcome)) - {-1})
-    ax.legend([handles[i] for i in present], [OUTCOMES[i].name for i in present],
+    ax.legend([handles[i] for i in present], [OUTCOMES[i].name.replace("_", " ") for i in present],
               loc="upper right", fontsize=7)
-    ax.set_xlabel(xn)
-    ax.set_ylabel(yn)
-    ax.set_title(title or f"outcome boundaries, n = {v['n']:g}")
+    ax.set_xlabel(tex_name(xn))
+    ax.set_ylabel(tex_name(yn))
+    ax.set_title(title or f"outcome boundaries, $n = {v['n']:g}$")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -78,8 +78,8 @@ def _save(fig, path: Path) -> Path:
 
 def _units(scene) -> tuple[str, str, str]:
     if scene is not None and scene.units == "physical":
-        return "t [s]", "v [m/s]", "energy [J]"
-    return "t (scaled)", "v (scaled)", "energy (scaled)"
+        return "$t$ [s]", "$v$ [m/s]", "energy [J]"
+    return "$t$ (scaled)", "$v$ (scaled)", "energy (scaled)"
 
 
 def default_granules(count: int) -> list[int]:
@@ -111,11 +111,12 @@ def plot_spacetime(result, path, scene=None) -> Path:
     mesh = ax.pcolormesh(cells.pop("X"), cells.pop("Y"), vv, cmap="RdBu_r",
                          norm=TwoSlopeNorm(0.0, -vmax, vmax), rasterized=True, **cells)
     fig.colorbar(mesh, ax=ax, label=f"velocity {vlab}")
-    ax.set_xlabel("granule index i")
+    ax.set_xlabel("granule index $i$")
     ax.set_ylabel(tlab)
-    name = scene.name if scene is not None else "run"
-    shown = "" if bt == bn == 1 else f", cells: peak of {bt} x {bn}"
-    ax.set_title(f"{name}: velocity of every granule (N = {N}, {F} frames{shown})",
+    # a "$" of the name is literal, not the start of mathtext
+    name = scene.name.replace("$", r"\$") if scene is not None else "run"
+    shown = "" if bt == bn == 1 else f", cells: peak of ${bt} \\times {bn}$"
+    ax.set_title(f"{name}: velocity of every granule ($N = {N}$, {F} frames{shown})",
                  fontsize="medium")
     _save(fig, Path(path))
     plt.close(fig)
