@@ -1,0 +1,251 @@
+"""Every public function, method and class of the package has a numpy-style docstring.
+
+Public: the names in a module's ``__all__`` when it defines one, else the names
+without a leading underscore; each object is checked in the module that defines
+it (a re-export is not checked twice).  Methods: those a public class defines
+itself whose names do not start with ``_`` (properties included; dunders and
+``__init__`` excepted, see below).
+
+The rules, each one failing on a real defect:
+
+1. A docstring whose first line is a summary (not blank).
+2. A function or method with parameters other than ``self``/``cls`` has a
+   ``Parameters`` section naming every one of them (``*args`` as ``*args`` or
+   ``args``; ``a, b : float`` names two), and names no parameter it does not take.
+   A class whose own ``__init__`` takes parameters documents them the same way,
+   in the class docstring or in ``__init__``'s.
+3. Every entry of ``Parameters`` has a description line below ``name : type``:
+   that line is where the unit goes (scene units, units of ``v0``, seconds,
+   dimensionless, ...), and a type alone says none.
+4. A function that returns a value (a ``return <expr>`` other than ``return
+   None`` in its own body) has a ``Returns`` section; a generator a ``Yields``
+   section.  Properties are exempt: their summary says what they return.
+
+Exempt from 2-4: functions of at most ``TINY_LINES`` lines (signature and
+docstring not counted) that are not in their module's ``__all__`` -- private
+-looking helpers of modules without ``__all__`` whose whole body reads at a
+glance.  The modules in :data:`PENDING` are skipped as a whole.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import pkgutil
+import re
+import textwrap
+
+import pytest
+
+import granular_chain
+
+# Modules under active edit elsewhere: their docstrings are fixed separately and
+# the module then leaves this set. The count after each name is how many rule
+# violations it had when it was put here (see test_pending_modules_still_fail).
+PENDING = {
+    "granular_chain.steppers": None,          # the whole subpackage (prefix)
+    "granular_chain.laws": None,              # the whole subpackage (prefix)
+    "granular_chain.scene": None,
+    "granular_chain.model": None,
+    "granular_chain.result": None,
+    "granular_chain.ledger": None,
+    "granular_chain.forces": None,
+    "granular_chain.simulate": None,
+    "granular_chain.writers.trajectory": None,
+    "granular_chain.units": None,
+    "granular_chain.restitution": None,
+}
+
+TINY_LINES = 3
+SECTIONS = ("Parameters", "Returns", "Yields", "Raises", "Warns", "Other Parameters",
+            "Attributes", "Methods", "See Also", "Notes", "References", "Examples")
+
+
+def _pending(module: str) -> bool:
+    return any(module == p or module.startswith(p + ".") for p in PENDING)
+
+
+def _modules():
+    names = [granular_chain.__name__]
+    for info in pkgutil.walk_packages(granular_chain.__path__, granular_chain.__name__ + "."):
+        names.append(info.name)
+    return sorted(names)
+
+
+# ----------------------------------------------------------------------------
+# reading a numpy-style docstring
+# ----------------------------------------------------------------------------
+def sections(doc: str) -> dict:
+    """Section title -> its lines (dedented), for the numpy-style headers of ``doc``."""
+    lines = inspect.cleandoc(doc).splitlines()
+    out, current = {}, None
+    for i, line in enumerate(lines):
+        nxt = lines[i + 1] if i + 1 < len(lines) else ""
+        if line.strip() in SECTIONS and re.fullmatch(r"\s*-{3,}\s*", nxt):
+            current = line.strip()
+            out[current] = []
+            continue
+        if current is not None and re.fullmatch(r"\s*-{3,}\s*", line) and not out[current]:
+            continue
+        if current is not None:
+            out[current].append(line)
+    return {k: textwrap.dedent("\n".join(v)).splitlines() for k, v in out.items()}
+
+
+def parameter_entries(lines: list) -> list:
+    """``(names, type, has_description)`` for each entry of a Parameters section."""
+    entries = []
+    for i, line in enumerate(lines):
+        if not line.strip() or line[0].isspace():
+            continue
+        head, _, typ = line.partition(" : ")
+        names = [n.strip().lstrip("*") for n in head.split(",") if n.strip()]
+        j = i + 1
+        described = j < len(lines) and lines[j][:1].isspace() and bool(lines[j].strip())
+        entries.append((names, typ.strip(), described))
+    return entries
+
+
+# ----------------------------------------------------------------------------
+# what each object must have
+# ----------------------------------------------------------------------------
+def _body_lines(fn) -> int:
+    """Lines of ``fn``'s body without its docstring (0 when the source is unknown)."""
+    try:
+        node = ast.parse(textwrap.dedent(inspect.getsource(fn))).body[0]
+    except (OSError, TypeError, SyntaxError, IndexError):
+        return 0
+    body = node.body
+    if body and isinstance(body[0], ast.Expr) and isinstance(getattr(body[0], "value", None),
+                                                             ast.Constant):
+        body = body[1:]
+    return (body[-1].end_lineno - body[0].lineno + 1) if body else 0
+
+
+def _own_returns(fn) -> tuple[bool, bool]:
+    """(returns a value, yields) from ``fn``'s own body, nested functions not counted."""
+    try:
+        node = ast.parse(textwrap.dedent(inspect.getsource(fn))).body[0]
+    except (OSError, TypeError, SyntaxError, IndexError):
+        return False, False
+    returns = yields = False
+    stack = list(node.body)
+    while stack:
+        n = stack.pop()
+        if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda, ast.ClassDef)):
+            continue
+        if isinstance(n, ast.Return) and n.value is not None and not (
+                isinstance(n.value, ast.Constant) and n.value.value is None):
+            returns = True
+        if isinstance(n, (ast.Yield, ast.YieldFrom)):
+            yields = True
+        stack.extend(ast.iter_child_nodes(n))
+    return returns, yields
+
+
+def _parameters(fn) -> list:
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):
+        return []
+    return [p.name for p in sig.parameters.values() if p.name not in ("self", "cls")]
+
+
+def _check_parameters(doc: str, params: list, where: str) -> list:
+    problems = []
+    sec = sections(doc)
+    if not params:
+        return problems
+    if "Parameters" not in sec:
+        return [f"{where}: no Parameters section (takes {', '.join(params)})"]
+    entries = parameter_entries(sec["Parameters"])
+    named = [n for names, _, _ in entries for n in names]
+    missing = [p for p in params if p not in named]
+    extra = [n for n in named if n not in params]
+    if missing:
+        problems.append(f"{where}: Parameters does not name {', '.join(missing)}")
+    if extra:
+        problems.append(f"{where}: Parameters names {', '.join(extra)}, not parameters")
+    for names, typ, described in entries:
+        if not described:
+            problems.append(f"{where}: parameter {', '.join(names)} ({typ or 'no type'}) "
+                            f"has no description line")
+    return problems
+
+
+def check_function(fn, where: str, exempt_tiny: bool, is_property: bool = False) -> list:
+    """Rule violations of one function or method (strings; empty when it complies)."""
+    doc = inspect.getdoc(fn) if not is_property else fn.__doc__
+    if not doc or not doc.strip() or not inspect.cleandoc(doc).splitlines()[0].strip():
+        return [f"{where}: no docstring with a summary line"]
+    if is_property or (exempt_tiny and _body_lines(fn) <= TINY_LINES):
+        return []
+    problems = _check_parameters(doc, _parameters(fn), where)
+    returns, yields = _own_returns(fn)
+    sec = sections(doc)
+    if returns and "Returns" not in sec:
+        problems.append(f"{where}: returns a value but has no Returns section")
+    if yields and "Yields" not in sec and "Returns" not in sec:
+        problems.append(f"{where}: a generator without a Yields section")
+    return problems
+
+
+def check_class(cls, where: str, exempt_tiny: bool) -> list:
+    """Violations of a class: its docstring, its ``__init__`` and its public methods."""
+    doc = cls.__doc__
+    if not doc or not doc.strip() or not inspect.cleandoc(doc).splitlines()[0].strip():
+        problems = [f"{where}: no docstring with a summary line"]
+    else:
+        problems = []
+    init = cls.__dict__.get("__init__")
+    if inspect.isfunction(init) and _parameters(init) and doc:
+        own = _check_parameters(doc, _parameters(init), where)
+        if own and init.__doc__:
+            own = _check_parameters(init.__doc__, _parameters(init), where + ".__init__")
+        problems += own
+    for name, attr in vars(cls).items():
+        if name.startswith("_"):
+            continue
+        fn = attr.fget if isinstance(attr, property) else getattr(attr, "__func__", attr)
+        # only the package's own code: ``sin = staticmethod(np.sin)`` is numpy's
+        if inspect.isfunction(fn) and fn.__module__ == cls.__module__:
+            problems += check_function(fn, f"{where}.{name}", exempt_tiny,
+                                       isinstance(attr, property))
+    return problems
+
+
+def public_objects(module):
+    """``(name, object, listed_in___all__)`` the module defines and makes public."""
+    listed = getattr(module, "__all__", None)
+    names = list(listed) if listed is not None else [n for n in vars(module) if not n.startswith("_")]
+    for name in names:
+        obj = getattr(module, name, None)
+        obj = getattr(obj, "py_func", obj)  # a numba dispatcher: its Python function
+        if not (inspect.isfunction(obj) or inspect.isclass(obj)):
+            continue
+        if getattr(obj, "__module__", None) != module.__name__:
+            continue  # checked where it is defined
+        yield name, obj, listed is not None
+
+
+def module_problems(name: str) -> list:
+    """Every rule violation of module ``name``'s public objects."""
+    module = importlib.import_module(name)
+    problems = []
+    for attr, obj, listed in public_objects(module):
+        where = f"{name}.{attr}"
+        if inspect.isclass(obj):
+            problems += check_class(obj, where, not listed)
+        else:
+            problems += check_function(obj, where, not listed)
+    return problems
+
+
+MODULES = _modules()
+
+
+@pytest.mark.parametrize("name", [m for m in MODULES if not _pending(m)])
+def test_public_docstrings_are_numpy_style(name):
+    problems = module_problems(name)
+    assert not problems, f"{len(problems)} docstring problems:\n" + "\n".join(problems)
