@@ -11,9 +11,11 @@ The rules, each one failing on a real defect:
 1. A docstring whose first line is a summary (not blank).
 2. A function or method with parameters other than ``self``/``cls`` has a
    ``Parameters`` section naming every one of them (``*args`` as ``*args`` or
-   ``args``; ``a, b : float`` names two), and names no parameter it does not take.
+   ``args``; ``a, b : float`` names two; a private ``_name`` need not be named),
+   and names no parameter it does not take.
    A class whose own ``__init__`` takes parameters documents them the same way,
-   in the class docstring or in ``__init__``'s.
+   in the class docstring or in ``__init__``'s; a dataclass's generated
+   ``__init__`` may have its fields under ``Attributes`` instead.
 3. Every entry of ``Parameters`` has a description line below ``name : type``:
    that line is where the unit goes (scene units, units of ``v0``, seconds,
    dimensionless, ...), and a type alone says none.
@@ -149,17 +151,19 @@ def _parameters(fn) -> list:
         sig = inspect.signature(fn)
     except (TypeError, ValueError):
         return []
-    return [p.name for p in sig.parameters.values() if p.name not in ("self", "cls")]
+    return [p.name for p in sig.parameters.values()
+            if p.name not in ("self", "cls") and not p.name.startswith("_")]
 
 
-def _check_parameters(doc: str, params: list, where: str) -> list:
+def _check_parameters(doc: str, params: list, where: str, titles=("Parameters",)) -> list:
+    """Rules 2 and 3 for ``params`` documented in the sections ``titles`` of ``doc``."""
     problems = []
     sec = sections(doc)
     if not params:
         return problems
-    if "Parameters" not in sec:
-        return [f"{where}: no Parameters section (takes {', '.join(params)})"]
-    entries = parameter_entries(sec["Parameters"])
+    if not any(t in sec for t in titles):
+        return [f"{where}: no {' or '.join(titles)} section (takes {', '.join(params)})"]
+    entries = [e for t in titles for e in parameter_entries(sec.get(t, []))]
     named = [n for names, _, _ in entries for n in names]
     missing = [p for p in params if p not in named]
     extra = [n for n in named if n not in params]
@@ -200,10 +204,15 @@ def check_class(cls, where: str, exempt_tiny: bool) -> list:
         problems = []
     init = cls.__dict__.get("__init__")
     if inspect.isfunction(init) and _parameters(init) and doc:
-        own = _check_parameters(doc, _parameters(init), where)
-        if own and init.__doc__:
-            own = _check_parameters(init.__doc__, _parameters(init), where + ".__init__")
-        problems += own
+        if init.__code__.co_filename == "<string>":
+            # generated (dataclass): its fields may be listed as Attributes instead
+            problems += _check_parameters(doc, _parameters(init), where,
+                                          ("Parameters", "Attributes"))
+        else:
+            own = _check_parameters(doc, _parameters(init), where)
+            if own and init.__doc__:
+                own = _check_parameters(init.__doc__, _parameters(init), where + ".__init__")
+            problems += own
     for name, attr in vars(cls).items():
         if name.startswith("_"):
             continue

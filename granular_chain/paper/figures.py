@@ -108,6 +108,15 @@ def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> d
 def collision_grid(n: float, eta1: np.ndarray, eta2: np.ndarray, processes: int = 2) -> dict:
     """:func:`collision_values` over the grid ``eta1 x eta2`` (no viscous friction).
 
+    Parameters
+    ----------
+    n : float
+        Potential exponent (2 or 5/2).
+    eta1, eta2 : ndarray, shape (M,) and (K,)
+        Kinetic friction forces on granules 1 and 2, scaled (units of ``m v0^2/A``).
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+
     Returns
     -------
     dict of ndarray, shape (len(eta2), len(eta1))
@@ -122,6 +131,17 @@ def collision_grid(n: float, eta1: np.ndarray, eta2: np.ndarray, processes: int 
 def hertz_maps(grid: int = 100, processes: int = 2, n: float = 2.5,
                eta1_max: float = 0.3, eta2_max: float = 0.7) -> dict:
     """The data of Fig. ``hertz``: a ``grid x grid`` map over (eta1, eta2).
+
+    Parameters
+    ----------
+    grid : int
+        Points per axis.
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+    n : float
+        Potential exponent (5/2: Hertz spheres).
+    eta1_max, eta2_max : float
+        Upper ends of the axes, scaled friction forces (units of ``m v0^2/A``); both start at 0.
 
     Returns
     -------
@@ -175,6 +195,18 @@ def fig_velocity(out: Path, m: int = 301) -> Path:
     closed form ``v1 = -eta pi/(2 sqrt2)`` (Sec. II A) overlaid for ``n = 2`` on
     its range ``eta < (1 + pi^2/8)^(-1/2)``; beyond, granule 2 stops first and
     granule 1 is pushed back by the released spring (``v1 -> -1`` for eta >= 1).
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta2).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta, r = _iia_curves(m, 1.2)
@@ -201,6 +233,18 @@ def fig_energy(out: Path, m: int = 301) -> Path:
 
     Closed form ``1 - eta (1-eta^2)^(1/2) pi/sqrt2 + (pi^2/4 - 1) eta^2`` (Sec. II A)
     overlaid for ``n = 2`` on its range; its minimum (eta = 0.4737) marked.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta2).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta, r = _iia_curves(m, 1.2)
@@ -290,6 +334,18 @@ def fig_timecompare2(out: Path, m: int = 300) -> Path:
     ``pi/sqrt2 - (pi eta/sqrt2)^(1/2)`` (Eq. ``t0model2``, dotted) and ``t0'`` , the
     separation time if Eqs. (x1model2, x2model2) stayed valid, ``sqrt2 atan(sqrt2/eta)``
     (dashed).  Log eta axis to show both limits (t0 ~ 1/eta, t0' ~ 2/eta).
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta1, log-spaced).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta = np.geomspace(1e-3, 10.0, m)
@@ -324,6 +380,18 @@ def fig_timecompare3(out: Path, m: int = 220) -> Path:
     engine's state at its first stop.  Where dashed < solid (eta > 0.2196) granule
     1 stops before separation: no backscattering.  Only ``eta < 0.44402`` (granule 1
     slides back) is meaningful.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta1).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta_c = float(paper.iib_slip_critical_eta_exact())
@@ -359,6 +427,18 @@ def fig_finalv1(out: Path, m: int = 401) -> Path:
 
     Engine for ``n = 2`` and ``n = 5/2``; the exact ``n = 2`` maximum of the
     backscattering (3.119 % at eta = 0.0940) and its end (eta = 0.2196) marked.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta1).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta = _eta_axis(0.0, 0.35, m)
@@ -394,6 +474,23 @@ def fig_hertz(out: Path, grid: int = 100, processes: int = 2, data: Optional[dic
     both granules move at the end of the collision (outcome
     ``backscatter_and_propagation``); the rest is white.  The outline of that
     region is drawn in red.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    grid : int
+        Points per axis of the map (ignored with ``data``).
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+    data : dict, optional
+        The output of :func:`hertz_maps` (``eta1``, ``eta2``, ``outcome``, ``v1``, ``v2``,
+        ``energy``) to draw instead of computing it.
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     d = data if data is not None else hertz_maps(grid, processes)
@@ -438,6 +535,18 @@ def fig_finalv1m5(out: Path, m: int = 281) -> Path:
     -0.1 (gamma1 < gamma2, solid), as in the caption.  Engine (black) and the
     first-order-in-delta closed forms of Sec. III (red, thin).  For gamma^2 >= 8
     the collision never ends (no point plotted).
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of gamma).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     gam = np.linspace(0.01, 2.8, m)
@@ -481,6 +590,19 @@ def make_figures(out: Path, only: Optional[Sequence[str]] = None, grid: int = 10
                  processes: int = 2, log=print) -> dict:
     """Draw the paper's figures into ``out`` and time each.
 
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    only : sequence of str, optional
+        Names from :data:`FIGURES` (default: all of them).
+    grid : int
+        Points per axis of the (eta1, eta2) map of Fig. ``hertz``.
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+    log : callable or None
+        Called with one line per figure (name, seconds, path); None is silent.
+
     Returns
     -------
     dict
@@ -505,7 +627,18 @@ def make_figures(out: Path, only: Optional[Sequence[str]] = None, grid: int = 10
 
 
 def add_figures_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``granular-chain figures`` to the CLI's subparsers."""
+    """Add ``granular-chain figures`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``figures`` subparser.
+    """
     p = subparsers.add_parser(
         "figures", help="redraw every figure of the two-granule paper from the engine",
         description="Redraw the figures of Rosas, Buceta and Lindenberg, 'Dynamics of Two "
@@ -522,7 +655,18 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run_figures_command(args) -> int:
-    """Run ``granular-chain figures``; returns the exit status."""
+    """Run ``granular-chain figures``; returns the exit status.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed ``--out``, ``--only``, ``--grid``, ``--processes``.
+
+    Returns
+    -------
+    int
+        0 on success, 2 on a bad argument.
+    """
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
     if args.grid < 2 or args.processes < 1:
         print("error: --grid must be >= 2 and --processes >= 1", file=sys.stderr)
