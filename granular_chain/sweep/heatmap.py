@@ -32,12 +32,31 @@ def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional
         Coordinate columns (dotted paths) on the horizontal and vertical axes.
     quantity : str
         Column to show; a text column (``status``, ``outcome``) is shown as categories.
+    path : str or Path
+        PNG written (its folder is created).
     mask : dict, optional
         ``{column: value}``: only points where every column equals its value are
         coloured; the rest are grey (the paper's maps show the
         backscatter-and-propagation region only).
+    title : str, optional
+        Title (default: the quantity and the mask).
+    contours : bool
+        Draw labelled iso-lines over a numeric quantity.
     transform : callable, optional
         Applied to the numbers before plotting (e.g. ``np.negative`` for -v1).
+    label : str, optional
+        Colour-bar label (default: the quantity, in mathtext when it is a symbol such
+        as ``v1``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    SweepError
+        A column named is not in the results.
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -114,5 +133,16 @@ def _same(value, want) -> bool:
 
 
 def slug(name: str) -> str:
-    """``name`` as a file-name part (runs of other characters become '_')."""
+    """``name`` as a file-name part (runs of other characters become '_').
+
+    Parameters
+    ----------
+    name : str
+        Any text.
+
+    Returns
+    -------
+    str
+        Letters, digits, ``_``, ``.`` and ``-`` only.
+    """
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_")
