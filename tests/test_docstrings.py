@@ -203,7 +203,7 @@ def check_class(cls, where: str, exempt_tiny: bool) -> list:
     else:
         problems = []
     init = cls.__dict__.get("__init__")
-    if inspect.isfunction(init) and _parameters(init) and doc:
+    if inspect.isfunction(init) and init.__module__ == cls.__module__ and _parameters(init) and doc:
         if init.__code__.co_filename == "<string>":
             # generated (dataclass): its fields may be listed as Attributes instead
             problems += _check_parameters(doc, _parameters(init), where,
