@@ -108,7 +108,8 @@ def label_contours(ax, cs, fmt: str = "%.3g", fontsize: float = 6, pad: float = 
     against the edge of its region) pile their labels on top of each other.  Here
     the labels are first placed without cutting the lines, measured after a draw,
     and kept first come first kept when their boxes, grown by ``pad`` pixels, meet
-    no kept box and lie inside the axes; the kept positions are then labelled
+    no kept box and lie inside the axes; a level left without a label is tried
+    again at other points along its longest line; the kept positions are then labelled
     again inline (the line cut under the label).  A label that then meets another
     (its rotation can differ a little) is dropped and the rest are labelled again
     on the uncut lines, so no line keeps a gap without its label.
@@ -134,8 +135,10 @@ def label_contours(ax, cs, fmt: str = "%.3g", fontsize: float = 6, pad: float = 
     fig = ax.get_figure()
     fig.draw_without_rendering()  # settle the layout first: positions are in pixels
     renderer = fig.canvas.get_renderer()
-    trial = cs.clabel(fontsize=fontsize, fmt=fmt, inline=False)
-    xy = [trial[i].get_position() for i in _keep_apart(list(trial), renderer, ax.bbox, pad)]
+    trial = list(cs.clabel(fontsize=fontsize, fmt=fmt, inline=False))
+    kept = [trial[i] for i in _keep_apart(trial, renderer, ax.bbox, pad)]
+    kept += _place_missing(ax, cs, kept, renderer, pad)
+    xy = [t.get_position() for t in kept]
     _clear_labels(cs)
     uncut = list(cs.get_paths())
     while xy:
@@ -159,3 +162,56 @@ def _clear_labels(cs) -> None:
         t.remove()
     cs.labelTexts.clear()
     cs.labelCValues.clear()
+
+
+def _place_missing(ax, cs, kept: list, renderer, pad: float) -> list:
+    """Labels for the levels that lost all theirs in the first pass: each is tried
+    at 5 points along its longest line (display space), the first that meets no
+    kept label (with ``pad`` pixels) and lies inside the axes is kept."""
+    boxes = [t.get_window_extent(renderer) for t in kept]
+    have = {t.get_text() for t in kept}
+    added = []
+    for level, index in zip(cs.labelLevelList, cs.labelIndiceList):
+        if cs.get_text(level, cs.labelFmt) in have:
+            continue
+        for x, y in _points_along(cs.get_transform(), cs.get_paths()[index]):
+            cs.add_label_near(x, y, inline=False, transform=False)
+            text = cs.labelTexts[-1]
+            box = text.get_window_extent(renderer)
+            inside = ax.bbox.x0 <= box.x0 and box.x1 <= ax.bbox.x1 \
+                and ax.bbox.y0 <= box.y0 and box.y1 <= ax.bbox.y1
+            if inside and not any(overlapping([box, b], pad) for b in boxes):
+                boxes.append(box)
+                added.append(text)
+                break
+            cs.pop_label()
+    return added
+
+
+def _points_along(transform, path, fractions=(0.5, 0.3, 0.7, 0.15, 0.85)) -> list:
+    """Display points at ``fractions`` of the arc length of the longest connected
+    piece of ``path`` (none for an empty path)."""
+    import numpy as np
+
+    pieces, current = [], []
+    for vertex, code in zip(path.vertices, path.codes if path.codes is not None
+                            else [1] + [2] * (len(path.vertices) - 1)):
+        if code == 79:  # CLOSEPOLY: back to the piece's start (its own vertex is unused)
+            current.append(current[0])
+            continue
+        if code == 1 and current:  # MOVETO starts a new piece
+            pieces.append(current)
+            current = []
+        current.append(vertex)
+    if current:
+        pieces.append(current)
+    if not pieces:
+        return []
+    xy = [transform.transform(np.asarray(p)) for p in pieces]
+    lengths = [np.r_[0.0, np.cumsum(np.hypot(*np.diff(p, axis=0).T))] for p in xy]
+    k = int(np.argmax([s[-1] for s in lengths]))
+    s, p = lengths[k], xy[k]
+    if s[-1] == 0.0:
+        return []
+    return [(float(np.interp(f * s[-1], s, p[:, 0])), float(np.interp(f * s[-1], s, p[:, 1])))
+            for f in fractions]
