@@ -59,16 +59,16 @@ def main(argv=None):
     x, y = axes[0].path, axes[1].path
     mask = {"outcome": "backscatter_and_propagation"}
     sw.plot_heatmap(cols, x, y, "v1", fig / "chains_eta_map_v1.png", mask=mask,
-                    transform=np.negative, label="-v1 (backscattering speed)",
-                    title="n = 5/2: backscattering velocity -v1 where both move (paper Fig. hertz, left)")
+                    transform=np.negative, label=r"$-v_1$ (backscattering speed)",
+                    title=r"$n = 5/2$: backscattering velocity $-v_1$ where both move (paper Fig. hertz, left)")
     sw.plot_heatmap(cols, x, y, "v2", fig / "chains_eta_map_v2.png", mask=mask,
-                    label="v2 (forward speed)",
-                    title="n = 5/2: forward velocity v2 where both move (paper Fig. hertz, middle)")
+                    label=r"$v_2$ (forward speed)",
+                    title=r"$n = 5/2$: forward velocity $v_2$ where both move (paper Fig. hertz, middle)")
     sw.plot_heatmap(cols, x, y, "energy_ratio", fig / "chains_eta_map_energy.png", mask=mask,
-                    label="E/E0", title="n = 5/2: energy ratio E/E0 where both move "
+                    label=r"$E/E_0$", title=r"$n = 5/2$: energy ratio $E/E_0$ where both move "
                     "(paper Fig. hertz, right)")
     sw.plot_heatmap(cols, x, y, "outcome", fig / "chains_eta_map_outcome.png",
-                    title="n = 5/2: outcome of the collision over (eta1, eta2)")
+                    title=r"$n = 5/2$: outcome of the collision over $(\eta_1, \eta_2)$")
 
 
 if __name__ == "__main__":

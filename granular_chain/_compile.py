@@ -35,6 +35,11 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     literal : tuple of int
         Positions of the feature codes: integers, or named tuples of integers
         (each field then a compile-time constant, read as ``features.law``).
+
+    Returns
+    -------
+    numba compiled overload
+        The entry point (callable with ``args``' types).
     """
     # A cheap key (numba.typeof on every argument costs more than a small run):
     # the literal values, and each argument's type, dtype, rank, layout and

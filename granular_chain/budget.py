@@ -67,6 +67,8 @@ class Budget:
     state, frame_bytes, writers, available : int
         Bytes of the stepper's arrays, of the kept frames, of the writers
         asked for, and of memory available.
+    model : Model or None
+        The Model built for the checks (:func:`~granular_chain.simulate.simulate` runs it).
     """
 
     steps: Optional[int]
@@ -80,11 +82,18 @@ class Budget:
 
     @property
     def total(self) -> int:
+        """Bytes of the run: state, kept frames and writers."""
         return self.state + self.frame_bytes + self.writers
 
 
 def available_memory() -> int:
-    """Bytes of memory available to a new allocation (MemAvailable, else free pages)."""
+    """Bytes of memory available to a new allocation (MemAvailable, else free pages).
+
+    Returns
+    -------
+    int
+        Bytes (``1 << 62`` when unknown: nothing is refused on memory).
+    """
     try:
         with open("/proc/meminfo") as fh:
             for line in fh:
@@ -225,7 +234,22 @@ def estimate_memory(scene, model, available: Optional[int] = None) -> Budget:
     """The :class:`Budget` of a run (steps and dt checked for Verlet, see the module doc).
 
     ``available`` defaults to :func:`available_memory`, looked up only for runs
-    estimated above SMALL_RUN (otherwise reported as -1: not looked up)."""
+    estimated above SMALL_RUN (otherwise reported as -1: not looked up).
+
+    Parameters
+    ----------
+    scene : Scene
+        The validated scene of the run.
+    model : Model
+        ``build_model(scene)``.
+    available : int, optional
+        Bytes of memory to plan with.
+
+    Returns
+    -------
+    Budget
+        Steps, dt, frames and bytes of the run.
+    """
     n = scene.granules.count
     if scene.run.stepper == "event":
         steps, dt = None, None
@@ -258,6 +282,7 @@ def check_budget(scene, model=None, available: Optional[int] = None) -> Budget:
     Parameters
     ----------
     scene : Scene
+        The validated scene of the run.
     model : Model, optional
         ``build_model(scene)``; built here (after the memory of the state is
         known to fit) when not given.

@@ -21,7 +21,22 @@ CHECKPOINT = "checkpoint.npz"
 
 
 def save_checkpoint(folder, state: dict, scene) -> Path:
-    """Write ``folder/checkpoint.npz`` from a driver state and its scene."""
+    """Write ``folder/checkpoint.npz`` from a driver state and its scene.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The run's (temporary) folder.
+    state : dict
+        The driver's state: arrays and scalars (positions in scene length units, etc.).
+    scene : Scene
+        The scene the state belongs to (stored as JSON beside it).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     path = Path(folder) / CHECKPOINT
     tmp = path.with_name(f".{CHECKPOINT}.tmp")
     with open(tmp, "wb") as fh:
@@ -31,7 +46,18 @@ def save_checkpoint(folder, state: dict, scene) -> Path:
 
 
 def load_checkpoint(folder) -> tuple[dict, dict]:
-    """The state and the scene (as a JSON mapping) of ``folder/checkpoint.npz``."""
+    """The state and the scene (as a JSON mapping) of ``folder/checkpoint.npz``.
+
+    Parameters
+    ----------
+    folder : str or Path
+        A folder holding ``checkpoint.npz``.
+
+    Returns
+    -------
+    (dict, dict)
+        The driver state and the scene mapping.
+    """
     with np.load(Path(folder) / CHECKPOINT) as data:
         state = {name: data[name] for name in data.files if name != "scene_json"}
         scene = json.loads(str(data["scene_json"]))
@@ -39,7 +65,20 @@ def load_checkpoint(folder) -> tuple[dict, dict]:
 
 
 def scene_difference(a, b, path: str = "") -> str:
-    """The first dotted path where two scene mappings differ ('' when equal)."""
+    """The first dotted path where two scene mappings differ ('' when equal).
+
+    Parameters
+    ----------
+    a, b : object
+        Two scene mappings (or any JSON values inside them).
+    path : str
+        Dotted path of ``a`` and ``b`` inside the whole scene ('' at the top).
+
+    Returns
+    -------
+    str
+        The dotted path, or '' when equal.
+    """
     if isinstance(a, dict) and isinstance(b, dict):
         for key in sorted(set(a) | set(b)):
             found = scene_difference(a.get(key), b.get(key), f"{path}.{key}" if path else key)

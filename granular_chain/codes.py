@@ -31,6 +31,7 @@ class Status(enum.IntEnum):
 
     @property
     def success(self) -> bool:
+        """True for a run that ended normally (a non-negative status)."""
         return self.value >= 0
 
     def __str__(self) -> str:

@@ -89,7 +89,18 @@ def nesterenko_speed(v_max: float, k: float = 1.0, m: float = 1.0, a: float = 1.
 
 
 def nesterenko_width(a: float = 1.0) -> float:
-    """Length of the support of Nesterenko's cos^4 solitary wave, 5 pi a / sqrt(10) = 4.97 a."""
+    """Length of the support of Nesterenko's cos^4 solitary wave, 5 pi a / sqrt(10) = 4.97 a.
+
+    Parameters
+    ----------
+    a : float
+        Spacing of the centres (any length unit; the result is in the same unit).
+
+    Returns
+    -------
+    float
+        The support length.
+    """
     return NESTERENKO_WIDTH * a
 
 
@@ -204,6 +215,13 @@ class PulseFit:
     residual: float
 
     def as_dict(self) -> dict:
+        """The fields as a dict (JSON-ready).
+
+        Returns
+        -------
+        dict
+            Field name -> value.
+        """
         return asdict(self)
 
 
@@ -218,6 +236,7 @@ def pulse_speed(result: Result, first: Optional[int] = None, last: Optional[int]
     Parameters
     ----------
     result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
     first, last : int, optional
         Inclusive range of granules used in the fit.
 
@@ -254,6 +273,11 @@ def pulse_position(result: Result):
     The position is the granule of largest forward velocity, refined by a
     parabola through it and its neighbours in index.
 
+    Parameters
+    ----------
+    result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
+
     Returns
     -------
     position, v_peak : ndarray, shape (F,)
@@ -283,6 +307,7 @@ def pulse_width(result: Result, frame: int, fraction: float = 0.5) -> dict:
     Parameters
     ----------
     result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
     frame : int
         Frame index (negative counts from the end).
     fraction : float
@@ -322,6 +347,13 @@ def fitted_width(result: Result, frame: int) -> dict:
     Nesterenko's profile shape, by least squares over the granules around the
     peak; ``L`` (in granules) is comparable with Nesterenko's 5 pi / sqrt(10) = 4.97.
 
+    Parameters
+    ----------
+    result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
+    frame : int
+        Frame index (negative counts from the end).
+
     Returns
     -------
     dict
@@ -354,6 +386,15 @@ def pulse_widths_along(result: Result, granules: Sequence[int], fraction: float 
     For each granule i, the frame closest to its peak time (:func:`peak_times`)
     is used. Needs frames at a fine cadence.
 
+    Parameters
+    ----------
+    result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
+    granules : sequence of int
+        Granule indices where the peak is looked at.
+    fraction : float
+        Threshold as a fraction of the peak forward velocity, dimensionless.
+
     Returns
     -------
     ndarray, shape (len(granules),)
@@ -374,6 +415,7 @@ def backscatter(result: Result, model_or_scene=None, first: Optional[int] = None
     Parameters
     ----------
     result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
     model_or_scene : Model, Scene or ndarray, optional
         Source of the masses (unit masses if None).
     first : int, optional
@@ -420,6 +462,16 @@ def energy_ledger(result: Result) -> dict:
     ``t``, ``kinetic``, ``potential``, ``coulomb`` and ``viscous`` (dissipated so
     far), ``mechanical`` (kinetic + potential) and ``balance`` (sum of all four
     minus the initial energy: the integrator's error, zero for an exact ledger).
+
+    Parameters
+    ----------
+    result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
+
+    Returns
+    -------
+    dict of ndarray, shape (F,)
+        As above; energies in the run's units (scene units: scaled or joules).
     """
     e = result.energy
     return {
@@ -436,6 +488,18 @@ def pulse_death_time(result: Result, threshold: float = 1e-3) -> float:
     rest`` ends exactly then: ``result.t_final`` with status AT_REST, returned
     directly when the threshold is never crossed earlier). Returns ``inf`` if
     the run ended with more energy left.
+
+    Parameters
+    ----------
+    result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
+    threshold : float
+        Fraction of the initial energy, dimensionless.
+
+    Returns
+    -------
+    float
+        Time in the run's units, or ``inf``.
     """
     e = result.energy
     mech = e.kinetic + e.potential
@@ -451,6 +515,18 @@ def penetration_depth(result: Result, tol: float = 0.0) -> int:
     """Number of granules that ever moved (|v| > tol at some frame, or a final displacement).
 
     For a pulse dying under friction: how far into the chain it got.
+
+    Parameters
+    ----------
+    result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
+    tol : float
+        Speed a granule must exceed to count as moving, in the run's velocity units.
+
+    Returns
+    -------
+    int
+        Granules from the first to the last that moved (0 if none).
     """
     v = np.abs(np.asarray(result.v))
     moved = np.any(v > tol, axis=0) | (np.asarray(result.x[-1]) != np.asarray(result.x[0]))
@@ -464,6 +540,22 @@ def summarize(result: Result, model_or_scene=None, *, first: int = 3,
 
     Pulse speed and width are included when ``pulse`` is true and the run has
     enough frames to resolve them; otherwise they are left out with a reason.
+
+    Parameters
+    ----------
+    result : Result
+        A finished run (frames of positions and velocities, its energy ledger).
+    model_or_scene : Model, Scene or ndarray, optional
+        Source of the masses (unit masses if None).
+    first : int
+        How many leading granules count for ``backscatter`` (the rest in ``backscatter_all``).
+    pulse : bool
+        Fit the pulse speed and width (needs frames at a fine cadence).
+
+    Returns
+    -------
+    dict
+        Status, energies, backscatter, pulse fit (or why not), death time, penetration depth; in the run's units.
     """
     N = result.v.shape[1]
     e = result.energy

@@ -90,7 +90,21 @@ Distribution = Annotated[Union[Uniform, Normal, LogNormal], Field(discriminator=
 
 
 def draw(recipe, n: int) -> np.ndarray:
-    """The ``n`` values of a recipe, shape (n,), float64 (see the module docstring)."""
+    """The ``n`` values of a recipe, shape (n,), float64 (see the module docstring).
+
+    Parameters
+    ----------
+    recipe : float, list or mapping
+        A per-granule field of the scene file: one value, N values, or a
+        distribution recipe (see the module docstring).
+    n : int
+        Number of values.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        float64, in the unit of the field.
+    """
     rng = np.random.default_rng(recipe.seed)
     if isinstance(recipe, Uniform):
         return rng.uniform(recipe.low, recipe.high, n)
@@ -104,10 +118,20 @@ def check_draw(recipe, n: int, bound: str, item: str = "granule") -> str:
 
     Parameters
     ----------
+    recipe : float, list or mapping
+        A per-granule field of the scene file: one value, N values, or a
+        distribution recipe (see the module docstring).
+    n : int
+        Number of values.
     bound : str
         ``positive``, ``nonnegative`` or ``finite``.
     item : str
         What the values are indexed by, for the message (``granule`` or ``contact``).
+
+    Returns
+    -------
+    str
+        The message, or '' when the values are fine.
     """
     values = draw(recipe, n)
     bad = {"positive": values <= 0, "nonnegative": values < 0,

@@ -75,10 +75,22 @@ class FrameWriter(Protocol):
     """What a writer attached to a run provides."""
 
     def write_frame(self, frame: Frame) -> None:
-        """Write one frame (called in time order, from the driver's thread)."""
+        """Write one frame (called in time order, from the driver's thread).
+
+        Parameters
+        ----------
+        frame : Frame
+            One output frame (time, positions, velocities, ledger; scene units).
+        """
 
     def close(self, result) -> None:
-        """The run has ended with ``result``: finish the file."""
+        """The run has ended with ``result``: finish the file.
+
+        Parameters
+        ----------
+        result : Result
+            The finished run.
+        """
 
 
 class FrameLog:
@@ -120,7 +132,13 @@ class FrameLog:
             self._thread.start()
 
     def record(self, frame: Frame) -> None:
-        """Take one frame (its arrays are copied: the caller may reuse them)."""
+        """Take one frame (its arrays are copied: the caller may reuse them).
+
+        Parameters
+        ----------
+        frame : Frame
+            One output frame (time, positions, velocities, ledger; scene units).
+        """
         frame = frame._replace(x=frame.x.copy(), v=frame.v.copy(), f=frame.f.copy())
         self._hand_on(frame)
         self.count += 1
@@ -169,7 +187,17 @@ class FrameLog:
 
     def resume(self, count: int, max_error: float, first: Frame) -> None:
         """Continue the log of a run restarted from a checkpoint: ``count`` frames were
-        written before it, ``first`` is the run's first frame."""
+        written before it, ``first`` is the run's first frame.
+
+        Parameters
+        ----------
+        count : int
+            Frames written before the checkpoint.
+        max_error : float
+            Largest relative ledger error over those frames (dimensionless).
+        first : Frame
+            The run's first frame.
+        """
         self.count, self.max_balance_error = int(count), float(max_error)
         for name in self._FIELDS:
             self.kept[name] = [getattr(first, name)]
@@ -188,11 +216,28 @@ class FrameLog:
         self._raise_error()
 
     def array(self, name: str) -> np.ndarray:
-        """A kept field over the kept frames: shape (F,) or (F, N)."""
+        """A kept field over the kept frames: shape (F,) or (F, N).
+
+        Parameters
+        ----------
+        name : str
+            A field of :class:`Frame` (``t``, ``x``, ``v``...).
+
+        Returns
+        -------
+        ndarray
+            Shape (F,) or (F, N), in scene units.
+        """
         return np.array(self.kept[name])
 
     def close(self, result) -> None:
-        """Every frame written; then tell every writer the run has ended."""
+        """Every frame written; then tell every writer the run has ended.
+
+        Parameters
+        ----------
+        result : Result
+            The finished run.
+        """
         self.finish()
         for w in self.writers:
             w.close(result)

@@ -30,12 +30,19 @@ CHUNK_SECONDS = 0.1
 
 @dataclass
 class StopRequest:
-    """What the signal handler saw: ``signum`` is 0 until a stop is asked for."""
+    """What the signal handler saw: ``signum`` is 0 until a stop is asked for.
+
+    Attributes
+    ----------
+    signum : int
+        Number of the signal received (0: none).
+    """
 
     signum: int = 0
 
     @property
     def requested(self) -> bool:
+        """True once SIGINT or SIGTERM arrived."""
         return self.signum != 0
 
     @property
@@ -57,6 +64,11 @@ def stop_signals():
     the request then never fires and the default behaviour is kept. Handlers
     are restored on exit, so nesting (the CLI around ``simulate``) is safe: the
     inner block shares the outer request.
+
+    Yields
+    ------
+    StopRequest
+        Shared by nested blocks.
     """
     if threading.current_thread() is not threading.main_thread():
         yield StopRequest()

@@ -80,7 +80,9 @@ def run_model(result, scene=None):
     Parameters
     ----------
     result : Result
+        A run, as simulate() returned it or read_run() read it.
     scene : Scene, optional
+        Scene to build the Model from (default ``result.scene``).
 
     Returns
     -------
@@ -101,7 +103,18 @@ _SUMMARY_KEYS = {"status", "status_code", "success", "message", "stepper", "dt",
 
 
 def summary_info(summary: dict) -> dict:
-    """``Result.info`` from summary.json, which writes its entries at the top level."""
+    """``Result.info`` from summary.json, which writes its entries at the top level.
+
+    Parameters
+    ----------
+    summary : dict
+        The parsed summary.json.
+
+    Returns
+    -------
+    dict
+        The ``info`` entries.
+    """
     return {k: v for k, v in summary.items() if k not in _SUMMARY_KEYS}
 
 

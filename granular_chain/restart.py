@@ -25,7 +25,17 @@ __all__ = ["RestartPlan", "plan_restart"]
 
 @dataclass
 class RestartPlan:
-    """Where a continued run comes from and goes to."""
+    """Where a continued run comes from and goes to.
+
+    Attributes
+    ----------
+    source : Path
+        The incomplete run folder (or partial folder) with the checkpoint.
+    out : Path
+        Where the continued run is published.
+    partial : bool
+        The source is a killed run's hidden partial folder (removed after).
+    """
 
     source: Path  #: the incomplete run folder (or partial folder) with the checkpoint
     out: Path  #: where the continued run is published
@@ -33,7 +43,18 @@ class RestartPlan:
     _copied: list = field(default_factory=list)  #: files prepare() copied, relative
 
     def prepare(self, tmp: Path) -> dict:
-        """Copy the source's files into the new run's folder ``tmp``; the checkpoint state."""
+        """Copy the source's files into the new run's folder ``tmp``; the checkpoint state.
+
+        Parameters
+        ----------
+        tmp : Path
+            The new run's temporary folder.
+
+        Returns
+        -------
+        dict
+            The checkpoint's driver state.
+        """
         try:
             for path in sorted(self.source.rglob("*")):
                 rel = path.relative_to(self.source)
@@ -59,7 +80,25 @@ class RestartPlan:
 
 
 def plan_restart(args, scene) -> RestartPlan:
-    """Check ``--restart RUN_DIR`` against the scene (raises :class:`OutputError`)."""
+    """Check ``--restart RUN_DIR`` against the scene (raises :class:`OutputError`).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed ``granular-chain run`` arguments (``--restart``, ``--out``...).
+    scene : Scene
+        The scene of the continued run (must match the checkpoint's).
+
+    Returns
+    -------
+    RestartPlan
+        Source and destination of the continued run.
+
+    Raises
+    ------
+    OutputError
+        The folder cannot be continued with this scene.
+    """
     source = Path(args.restart)
     cwd = Path.cwd().resolve()
     if source.resolve() == cwd or source.resolve() in cwd.parents:

@@ -53,6 +53,20 @@ def default_out(scene_name: str, overrides: Sequence[str], root: Path = Path("ou
     path wins), so runs of one scene with different overrides never share a
     folder, and the same overrides always find the same folder, whatever their
     order or spelling (``1`` and ``1.0`` differ; ``[0,1]`` and ``[0, 1]`` do not).
+
+    Parameters
+    ----------
+    scene_name : str
+        Name of the scene.
+    overrides : sequence of str
+        The ``--set path=value`` overrides, as typed.
+    root : Path
+        Folder that holds the run folders.
+
+    Returns
+    -------
+    Path
+        The run folder (not created).
     """
     if not overrides:
         return root / scene_name
@@ -68,7 +82,18 @@ def default_out(scene_name: str, overrides: Sequence[str], root: Path = Path("ou
 
 
 def read_marker(folder: Path) -> Optional[dict]:
-    """The marker of a run folder, or None when ``folder`` is not one the engine wrote."""
+    """The marker of a run folder, or None when ``folder`` is not one the engine wrote.
+
+    Parameters
+    ----------
+    folder : Path
+        Any folder.
+
+    Returns
+    -------
+    dict or None
+        The parsed marker.
+    """
     try:
         data = json.loads((Path(folder) / MARKER).read_text())
     except (OSError, ValueError):
@@ -113,6 +138,22 @@ def check_out(out: Path, *, overwrite: bool, scene_source: str, is_default: bool
     it does not exist, or when it is a complete run folder of the engine whose
     files are all the engine's and ``overwrite`` is given (or, for the default
     folder, the earlier run was of the same scene file).
+
+    Parameters
+    ----------
+    out : Path
+        The output folder asked for.
+    overwrite : bool
+        ``--overwrite`` was given.
+    scene_source : str
+        Path of the scene file (compared with the marker of an earlier run).
+    is_default : bool
+        ``out`` is the default folder (not named with ``--out``).
+
+    Raises
+    ------
+    OutputError
+        ``out`` must not be written.
     """
     name = f"--out {out}" if not is_default else f"output folder {out}"
     cwd = Path.cwd().resolve()
@@ -209,7 +250,18 @@ class RunFolder:
 
     def keep(self, *, reason: str) -> Path:
         """Leave the run where it is (its hidden temporary folder), marked incomplete:
-        an interrupted run that would have replaced an earlier one, which stays."""
+        an interrupted run that would have replaced an earlier one, which stays.
+
+        Parameters
+        ----------
+        reason : str
+            Why the run is incomplete (kept in the marker; '' for a complete run).
+
+        Returns
+        -------
+        Path
+            The temporary folder kept.
+        """
         files = [f for f in _files_below(self.tmp) if f != MARKER]
         self._write_marker(self.tmp, complete=False, reason=reason, files=files)
         self.published = True  # (not removed on exit)
@@ -223,6 +275,13 @@ class RunFolder:
         aside first and removed file by file after the rename, only its marker's
         files. Anything else found at ``out`` now (it appeared while the run went)
         is left alone: the run is published beside it, and OutputError says where.
+
+        Parameters
+        ----------
+        complete : bool
+            Whether the run reached its end.
+        reason : str
+            Why the run is incomplete (kept in the marker; '' for a complete run).
         """
         files = [f for f in _files_below(self.tmp) if f != MARKER]
         self._write_marker(self.tmp, complete=complete, reason=reason, files=files)
@@ -280,6 +339,13 @@ def remove_files(folder: Path, files) -> None:
     A listed path that is absolute or climbs out with ``..`` is skipped (a marker
     edited by hand cannot reach outside its folder); anything not listed stays, and
     the folders that hold it.
+
+    Parameters
+    ----------
+    folder : Path
+        A run folder.
+    files : iterable of str
+        Paths relative to ``folder`` (as listed in its marker).
     """
     folder = Path(folder)
     emptied = {folder}
@@ -306,7 +372,22 @@ def _remove_stale_partials(parent: Path, name: str) -> None:
 
 def stale_partials(parent: Path, name: str, recoverable: bool) -> list[Path]:
     """Temporary folders of earlier runs to ``name`` whose process is gone: those with
-    a checkpoint (``recoverable``: ``--restart`` continues them) or those without."""
+    a checkpoint (``recoverable``: ``--restart`` continues them) or those without.
+
+    Parameters
+    ----------
+    parent : Path
+        Folder that holds the run folders.
+    name : str
+        Name of the run folder.
+    recoverable : bool
+        True: only folders with a checkpoint; False: only those without.
+
+    Returns
+    -------
+    list of Path
+        The temporary folders, sorted.
+    """
     found = []
     for tmp in sorted(parent.glob(f".{name}.partial-*")):
         marker = read_marker(tmp)
@@ -346,7 +427,15 @@ def check_new_files(paths: Sequence[Path], what: str) -> None:
 
 
 def adopt_files(folder: Path, paths: Sequence[Path]) -> None:
-    """Add files the engine wrote later (plots of a finished run) to a run folder's marker."""
+    """Add files the engine wrote later (plots of a finished run) to a run folder's marker.
+
+    Parameters
+    ----------
+    folder : Path
+        A run folder.
+    paths : sequence of Path
+        Files inside ``folder`` to add.
+    """
     marker = read_marker(folder)
     if marker is None:
         return
@@ -356,7 +445,15 @@ def adopt_files(folder: Path, paths: Sequence[Path]) -> None:
 
 
 def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary name beside ``path`` and rename it into place."""
+    """Write ``text`` to a temporary name beside ``path`` and rename it into place.
+
+    Parameters
+    ----------
+    path : Path
+        File written.
+    text : str
+        Its whole content.
+    """
     path = Path(path)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:

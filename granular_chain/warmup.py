@@ -29,6 +29,16 @@ def kernels_cached(stepper: str) -> bool:
     An index is written with the first compiled specialisation and removed
     when the package's sources change (see ``granular_chain._drop_stale_kernels``);
     a scene with a new feature set still compiles once more without notice.
+
+    Parameters
+    ----------
+    stepper : {'verlet', 'event'}
+        The stepper whose kernels are meant.
+
+    Returns
+    -------
+    bool
+        True when the index exists.
     """
     pattern = _KERNEL_FILES.get(stepper, _KERNEL_FILES["verlet"])
     custom = os.environ.get("NUMBA_CACHE_DIR")
@@ -38,7 +48,21 @@ def kernels_cached(stepper: str) -> bool:
 
 @contextlib.contextmanager
 def compile_notice(stepper: str, stream=None, quiet: bool = False):
-    """Around the code that compiles: spinner or one line when the kernels are not cached."""
+    """Around the code that compiles: spinner or one line when the kernels are not cached.
+
+    Parameters
+    ----------
+    stepper : {'verlet', 'event'}
+        The stepper whose kernels are meant.
+    stream : file, optional
+        Where the notice goes (default ``sys.stderr``).
+    quiet : bool
+        No notice.
+
+    Yields
+    ------
+    None
+    """
     stream = sys.stderr if stream is None else stream
     if quiet or kernels_cached(stepper):
         yield
@@ -59,7 +83,15 @@ def compile_notice(stepper: str, stream=None, quiet: bool = False):
 
 def announce_compilation(stepper: str, stream=None) -> None:
     """One line on stderr when ``stepper``'s kernels are not cached yet: for commands
-    (figures, boundaries) whose first minute would otherwise pass in silence."""
+    (figures, boundaries) whose first minute would otherwise pass in silence.
+
+    Parameters
+    ----------
+    stepper : {'verlet', 'event'}
+        The stepper whose kernels are meant.
+    stream : file, optional
+        Where the notice goes (default ``sys.stderr``).
+    """
     if not kernels_cached(stepper):
         print(f"granular-chain: {NOTICE}", file=sys.stderr if stream is None else stream,
               flush=True)
@@ -90,6 +122,20 @@ def prepare_kernels(scene, *, quiet: bool = False, stream=None) -> float:
 
     Called before a run so that the compilation is announced (and the progress
     bar of the run then measures stepping only).
+
+    Parameters
+    ----------
+    scene : Scene
+        The validated scene about to run.
+    quiet : bool
+        No notice.
+    stream : file, optional
+        Where the notice goes (default ``sys.stderr``).
+
+    Returns
+    -------
+    float
+        Seconds of compiling or loading.
     """
     from .simulate import simulate
 

@@ -5,11 +5,30 @@ from __future__ import annotations
 
 
 def add_parser(subparsers) -> None:
+    """Register ``granular-chain boundaries`` on the CLI's subparsers.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+    """
     from ..two_granules.boundaries import add_boundaries_parser
     add_boundaries_parser(subparsers)
 
 
 def run(args) -> int:
+    """Entry point of ``granular-chain boundaries`` (announces a first compilation).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain boundaries``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 ok, 2 bad input.
+    """
     from ..two_granules.boundaries import run_boundaries_command
     from ..warmup import announce_compilation
     announce_compilation("event")  # the collisions run on the event stepper

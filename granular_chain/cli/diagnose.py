@@ -12,7 +12,18 @@ from ..diagnostics import summarize
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``granular-chain diagnose RUN_DIR_or_SCENE`` on an argparse subparsers object."""
+    """Register ``granular-chain diagnose RUN_DIR_or_SCENE`` on an argparse subparsers object.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``diagnose`` subparser.
+    """
     p = subparsers.add_parser(
         "diagnose", help="pulse speed/width, backscatter, energy ledger of a run or a scene",
         description="Diagnostics of a finished run (RUN_DIR with trajectory.h5) or of a "
@@ -28,7 +39,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain diagnose``: 0 ok, 1 run failed, 2 bad input."""
+    """Entry point of ``granular-chain diagnose``: 0 ok, 1 run failed, 2 bad input.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain diagnose``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     from ..rundir import OutputError, check_new_files, write_text_atomic
     from ..scene import SceneError, load_scene
 

@@ -12,6 +12,17 @@ EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + signal number, as shells r
 
 
 def fail(message: str) -> int:
-    """Say ``message`` in one line on stderr; the bad-input exit status."""
+    """Say ``message`` in one line on stderr; the bad-input exit status.
+
+    Parameters
+    ----------
+    message : str
+        The refusal, one line.
+
+    Returns
+    -------
+    int
+        :data:`EXIT_BAD_INPUT` (2).
+    """
     print(f"granular-chain: {message}", file=sys.stderr)
     return EXIT_BAD_INPUT

@@ -9,7 +9,18 @@ from ..writers.export import export_run
 
 
 def add_parser(subparsers):
-    """Register ``granular-chain export RUN_DIR --format FMT [--out DIR]``."""
+    """Register ``granular-chain export RUN_DIR --format FMT [--out DIR]``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``export`` subparser.
+    """
     p = subparsers.add_parser(
         "export", help="a finished run in another mesh format (meshio: xdmf, vtu, ...)",
         description="Write the frames of a run (RUN_DIR/trajectory.h5) for tools that read "
@@ -22,7 +33,18 @@ def add_parser(subparsers):
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain export``: 0 written, 2 bad input."""
+    """Entry point of ``granular-chain export``: 0 written, 2 bad input.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain export``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     import sys
 
     from ..readback import read_run, run_model

@@ -5,11 +5,30 @@ from __future__ import annotations
 
 
 def add_parser(subparsers) -> None:
+    """Register ``granular-chain figures`` on the CLI's subparsers.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+    """
     from ..paper.figures import add_figures_parser
     add_figures_parser(subparsers)
 
 
 def run(args) -> int:
+    """Entry point of ``granular-chain figures`` (announces a first compilation).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain figures``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 ok, 2 bad input.
+    """
     from ..paper.figures import run_figures_command
     from ..warmup import announce_compilation
     announce_compilation("event")  # the collisions run on the event stepper

@@ -30,7 +30,13 @@ def _command(name: str):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``granular-chain`` argument parser with every subcommand."""
+    """The ``granular-chain`` argument parser with every subcommand.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser.
+    """
     from .. import __version__
     from . import __doc__ as description
 
@@ -43,7 +49,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Run ``granular-chain`` with ``argv`` (default ``sys.argv[1:]``); the exit status."""
+    """Run ``granular-chain`` with ``argv`` (default ``sys.argv[1:]``); the exit status.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments after the program name.
+
+    Returns
+    -------
+    int
+        Exit status (see :mod:`granular_chain.cli.exit_codes`).
+    """
     args = build_parser().parse_args(argv)
     if args.command not in COMMANDS:
         return EXIT_BAD_INPUT  # argparse already refused unknown commands

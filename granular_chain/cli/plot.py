@@ -8,6 +8,13 @@ from .exit_codes import EXIT_OK, fail
 
 
 def add_parser(subparsers) -> None:
+    """Register ``granular-chain plot`` on the CLI's subparsers.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+    """
     plot = subparsers.add_parser(
         "plot", help="PNG plots of a finished run (reads RUN_DIR/trajectory.h5)")
     plot.add_argument("run_dir", metavar="RUN_DIR", help="output folder of a run")
@@ -22,6 +29,18 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
+    """Entry point of ``granular-chain plot``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain plot``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 written, 2 bad input.
+    """
     run_dir = Path(args.run_dir)
     if not (run_dir / "trajectory.h5").is_file():
         return fail(f"{run_dir}: no trajectory.h5 to plot (run with --trajectory, the "

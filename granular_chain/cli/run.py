@@ -23,6 +23,13 @@ from .exit_codes import EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_FAILED, fail
 
 
 def add_parser(subparsers) -> None:
+    """Register ``granular-chain run`` on the CLI's subparsers.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+    """
     run = subparsers.add_parser("run", help="run a scene and write its outputs")
     run.add_argument("scene", help="scene YAML file")
     run.add_argument("--set", dest="overrides", action="append", default=[],
@@ -178,7 +185,18 @@ def _output_folder(args, scene) -> tuple[Path, bool]:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain run``."""
+    """Entry point of ``granular-chain run``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain run``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 ok, 1 run failed, 2 bad input, 130/143 interrupted.
+    """
     from ..rundir import OutputError
     from ..simulate import SimulationError
 

@@ -13,7 +13,18 @@ from ..sweep.heatmap import slug
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``granular-chain sweep`` on an argparse subparsers object."""
+    """Register ``granular-chain sweep`` on an argparse subparsers object.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``sweep`` subparser.
+    """
     p = subparsers.add_parser(
         "sweep", help="run a grid of scene overrides on dask.distributed (resumable)",
         description="Run every point of a grid (or list) of scene overrides in parallel on "
@@ -46,7 +57,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain sweep``: 0 done, 2 bad input, 130 interrupted."""
+    """Entry point of ``granular-chain sweep``: 0 done, 2 bad input, 130 interrupted.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain sweep``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     try:
         axes = [parse_grid(s) for s in args.grid] + [parse_list(s) for s in args.lists]
         if not axes:

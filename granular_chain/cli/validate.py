@@ -8,6 +8,13 @@ from .exit_codes import EXIT_OK, fail
 
 
 def add_parser(subparsers) -> None:
+    """Register ``granular-chain validate`` on the CLI's subparsers.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+    """
     val = subparsers.add_parser("validate", help="check a scene file and report what it contains")
     val.add_argument("scene")
     val.add_argument("--set", dest="overrides", action="append", default=[],
@@ -15,6 +22,18 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
+    """Entry point of ``granular-chain validate``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain validate``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 valid (a JSON report on stdout), 2 invalid.
+    """
     from ..scene import SceneError, load_scene
     from ..simulate import SimulationError, preflight, step_plan
 

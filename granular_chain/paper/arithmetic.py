@@ -25,10 +25,28 @@ class Float64:
 
     @staticmethod
     def pi():
+        """The number pi as a numpy float64.
+
+        Returns
+        -------
+        float
+            pi, dimensionless.
+        """
         return np.pi
 
     @staticmethod
     def num(x):
+        """``x`` as float64: a numpy array when ``x`` has dimensions, else ``np.float64``.
+
+        Parameters
+        ----------
+        x : float or array_like
+            Value(s) in any unit (the caller's).
+
+        Returns
+        -------
+        numpy.float64 or ndarray
+        """
         return np.asarray(x, dtype=float) if np.ndim(x) else np.float64(x)
 
 
@@ -43,15 +61,44 @@ class Multiprecision:
 
     @staticmethod
     def pi():
+        """The number pi at the current ``mpmath.mp.dps``.
+
+        Returns
+        -------
+        mpmath.mpf
+            pi, dimensionless.
+        """
         return +mpmath.pi
 
     @staticmethod
     def num(x):
+        """``x`` as an :class:`mpmath.mpf` at the current precision.
+
+        Parameters
+        ----------
+        x : float, str or mpf
+            Value in any unit (the caller's).
+
+        Returns
+        -------
+        mpmath.mpf
+        """
         return mpmath.mpf(x)
 
 
 def arithmetic_for(*xs):
-    """:class:`Multiprecision` if any argument is an mpmath number, else :class:`Float64`."""
+    """:class:`Multiprecision` if any argument is an mpmath number, else :class:`Float64`.
+
+    Parameters
+    ----------
+    *xs : float, ndarray or mpmath number
+        The arguments of a closed form.
+
+    Returns
+    -------
+    type
+        :class:`Multiprecision` or :class:`Float64`.
+    """
     if any(isinstance(x, (mpmath.mpf, mpmath.mpc)) for x in xs):
         return Multiprecision
     return Float64

@@ -51,6 +51,18 @@ def iib_x2(t, eta):
     """Sec. II B Eq. (``eq:x2model2``), as printed (exact while v1 > 0).
 
     ``x2(t) = 1/4 [ eta + 2t - eta t^2 - eta cos(sqrt2 t) - sqrt2 sin(sqrt2 t) ]``.
+
+    Parameters
+    ----------
+    t : float, ndarray or mpf
+        Time since first contact, units of ``B``.
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
+
+    Returns
+    -------
+    same type as ``t``
+        Position of granule 2 from its start, units of ``A``.
     """
     arith = arithmetic_for(t, eta)
     t, eta = arith.num(t), arith.num(eta)
@@ -59,7 +71,20 @@ def iib_x2(t, eta):
 
 
 def iib_v1(t, eta):
-    """Sec. II B, printed ``v1(t) = 1/4 [2 - 2 eta t + 2 cos(sqrt2 t) - sqrt2 eta sin(sqrt2 t)]`` (exact)."""
+    """Sec. II B, printed ``v1(t) = 1/4 [2 - 2 eta t + 2 cos(sqrt2 t) - sqrt2 eta sin(sqrt2 t)]`` (exact).
+
+    Parameters
+    ----------
+    t : float, ndarray or mpf
+        Time since first contact, units of ``B``.
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
+
+    Returns
+    -------
+    same type as ``t``
+        Velocity of granule 1, units of ``v0``.
+    """
     arith = arithmetic_for(t, eta)
     t, eta = arith.num(t), arith.num(eta)
     r2 = arith.sqrt(arith.num(2))
@@ -70,6 +95,18 @@ def iib_v2(t, eta):
     """Derivative of Eq. (``eq:x2model2``) (not printed).
 
     ``v2(t) = 1/4 [2 - 2 eta t - 2 cos(sqrt2 t) + sqrt2 eta sin(sqrt2 t)]``.
+
+    Parameters
+    ----------
+    t : float, ndarray or mpf
+        Time since first contact, units of ``B``.
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
+
+    Returns
+    -------
+    same type as ``t``
+        Velocity of granule 2, units of ``v0``.
     """
     arith = arithmetic_for(t, eta)
     t, eta = arith.num(t), arith.num(eta)
@@ -87,6 +124,7 @@ def iib_t0_small_eta(eta):
     Parameters
     ----------
     eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
 
     Returns
     -------
@@ -103,6 +141,16 @@ def iib_t0_small_eta_next_order(eta):
 
     With ``a = pi eta / sqrt2``, ``t0 = pi/sqrt2 - a^(1/2) - a^(3/2)/12 + O(eta^(5/2))``
     (expand ``4 v1`` about ``pi/sqrt2``: ``2 tau^2 - sqrt2 pi eta - tau^4/3 + O(eta tau^3) = 0``).
+
+    Parameters
+    ----------
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
+
+    Returns
+    -------
+    same type as ``eta``
+        Stopping time of granule 1, units of ``B``.
     """
     arith = arithmetic_for(eta)
     eta = arith.num(eta)
@@ -120,6 +168,7 @@ def iib_t0_exact(eta, dps=30):
     Parameters
     ----------
     eta : float or mpf, > 0
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
     dps : int
         Decimal digits.
 
@@ -145,7 +194,9 @@ def iib_t0prime_exact(eta, dps=30):
     Parameters
     ----------
     eta : float or mpf, > 0
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
     dps : int
+        Decimal digits of the mpmath computation.
 
     Returns
     -------
@@ -172,6 +223,7 @@ def iib_initial_conditions_small_eta(eta):
     Parameters
     ----------
     eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
 
     Returns
     -------
@@ -193,6 +245,13 @@ def iib_initial_conditions_exact(eta, dps=30):
 
     Printed Eqs. (x1model2, x2model2) at :func:`iib_t0_exact`; ``v2 = 1 - eta t0``
     (momentum balance: ``(x1+x2)'' = -eta`` while granule 1 slides forward).
+
+    Parameters
+    ----------
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
+    dps : int
+        Decimal digits of the mpmath computation.
 
     Returns
     -------
@@ -220,6 +279,7 @@ def iib_slip_force_printed(eta):
     Parameters
     ----------
     eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
 
     Returns
     -------
@@ -238,6 +298,11 @@ def iib_slip_critical_eta_printed(dps=30):
     the printed 0.439, but only for the approximated force; the exact threshold is
     :func:`iib_slip_critical_eta_exact` = 0.444021... (erratum: 1.2 % low).
 
+    Parameters
+    ----------
+    dps : int
+        Decimal digits of the mpmath computation.
+
     Returns
     -------
     mpf
@@ -254,6 +319,11 @@ def iib_slip_critical_eta_exact(dps=30):
     phase-1 force ``u = x1 - x2``: ``eta_c = 0.4440212486825...``.  Granule 1 slides
     back for ``eta < eta_c`` and sticks for ``eta >= eta_c`` (the printed 0.439 is
     the root of the small-eta approximation of the force).
+
+    Parameters
+    ----------
+    dps : int
+        Decimal digits of the mpmath computation.
 
     Returns
     -------
@@ -278,6 +348,7 @@ def iib_t1_small_eta(eta):
     Parameters
     ----------
     eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
 
     Returns
     -------
@@ -293,6 +364,16 @@ def iib_t1_small_eta_next_order(eta):
 
     ``t1 = a^(1/2) - eta + a^(3/2)/12 + O(eta^2)``, ``a = pi eta/sqrt2``: solve
     ``u(t1) = 0`` with ``u0 = a^(1/2) - eta - a^(3/2)/4``, ``v2(t0) = 1 - a + eta a^(1/2)``.
+
+    Parameters
+    ----------
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
+
+    Returns
+    -------
+    same type as ``eta``
+        Back-sliding time ``t1`` after the stop, units of ``B``.
     """
     arith = arithmetic_for(eta)
     eta = arith.num(eta)
@@ -330,6 +411,20 @@ def iib_back_sliding_v1(tp, eta, u0, v20):
     ``v1(t') = [v20 (1 - cos(sqrt2 t')) + eta t' - sqrt2 (u0 - eta/2) sin(sqrt2 t')]/2``;
     arguments as :func:`iib_back_sliding_overlap`. Its first positive root is the time
     granule 1 would stop again (the dashed curve of Fig. ``timecompare3``).
+
+    Parameters
+    ----------
+    tp : float, ndarray or mpf
+        Time since the phase began, ``t' = t - t0``, units of ``B``.
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
+    u0, v20 : float or mpf
+        Overlap (units of ``A``) and velocity of granule 2 (units of ``v0``) when granule 1 stopped.
+
+    Returns
+    -------
+    same type as ``tp``
+        Velocity of granule 1, units of ``v0``.
     """
     arith = arithmetic_for(tp, eta, u0, v20)
     r2 = arith.sqrt(arith.num(2))
@@ -354,7 +449,9 @@ def iib_collision_exact(eta, dps=30):
     Parameters
     ----------
     eta : float or mpf, > 0
+        Kinetic friction force on granule 1, scaled (units of ``m v0^2/A``).
     dps : int
+        Decimal digits of the mpmath computation.
 
     Returns
     -------
@@ -411,6 +508,11 @@ def iib_backscatter_threshold_eta_exact(dps=30):
     Root of ``t_stop(eta) = t1(eta)`` (granule 1 stops exactly at separation):
     ``eta_b = 0.2195624104...``.  Verdict: the printed ``~0.22`` is right to its 2 digits.
 
+    Parameters
+    ----------
+    dps : int
+        Decimal digits of the mpmath computation.
+
     Returns
     -------
     mpf
@@ -427,6 +529,11 @@ def iib_max_backscatter_exact(dps=20):
     """Sec. II B claim: the backward speed of granule 1 peaks at "approximately 3%".
 
     Golden-section maximisation of ``-v1^(s)(eta)`` from :func:`iib_collision_exact`.
+
+    Parameters
+    ----------
+    dps : int
+        Decimal digits of the mpmath computation.
 
     Returns
     -------

@@ -114,6 +114,18 @@ def iia_v1(tp, eta):
     """Time derivative of Eq. (``eq:x1``) (not printed; used for v1^(s)).
 
     ``v1(t') = 1/4 [ -2 eta t' + 2c - sqrt2 eta sin(sqrt2 t') + 2c cos(sqrt2 t') ]``.
+
+    Parameters
+    ----------
+    tp : float, ndarray or mpf
+        Time since the phase began, ``t' = t - t0``, units of ``B``.
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 2, scaled (units of ``m v0^2/A``).
+
+    Returns
+    -------
+    same type as ``tp``
+        Velocity of granule 1, units of ``v0``.
     """
     arith = arithmetic_for(tp, eta)
     tp, eta = arith.num(tp), arith.num(eta)
@@ -126,6 +138,18 @@ def iia_v2(tp, eta):
     """Time derivative of Eq. (``eq:x2``) (not printed).
 
     ``v2(t') = 1/4 [ -2 eta t' + 2c + sqrt2 eta sin(sqrt2 t') - 2c cos(sqrt2 t') ]``.
+
+    Parameters
+    ----------
+    tp : float, ndarray or mpf
+        Time since the phase began, ``t' = t - t0``, units of ``B``.
+    eta : float, ndarray or mpf
+        Kinetic friction force on granule 2, scaled (units of ``m v0^2/A``).
+
+    Returns
+    -------
+    same type as ``tp``
+        Velocity of granule 2, units of ``v0``.
     """
     arith = arithmetic_for(tp, eta)
     tp, eta = arith.num(tp), arith.num(eta)
@@ -160,6 +184,7 @@ def iia_v1s(eta):
     Parameters
     ----------
     eta : float, ndarray or mpf
+        Kinetic friction force on granule 2, scaled (units of ``m v0^2/A``).
 
     Returns
     -------
@@ -177,6 +202,7 @@ def iia_v2s(eta):
     Parameters
     ----------
     eta : float, ndarray or mpf
+        Kinetic friction force on granule 2, scaled (units of ``m v0^2/A``).
 
     Returns
     -------
@@ -220,6 +246,7 @@ def iia_energy_ratio(eta):
     Parameters
     ----------
     eta : float, ndarray or mpf
+        Kinetic friction force on granule 2, scaled (units of ``m v0^2/A``).
 
     Returns
     -------

@@ -51,6 +51,7 @@ import numpy as np
 
 from .. import paper
 from ..codes import Status
+from ..plotting import label_contours, signed
 from ..two_granules import OUTCOMES, Outcome, collide, collision_map
 
 __all__ = [
@@ -107,6 +108,15 @@ def collision_values(n: float, points: Sequence[tuple], processes: int = 1) -> d
 def collision_grid(n: float, eta1: np.ndarray, eta2: np.ndarray, processes: int = 2) -> dict:
     """:func:`collision_values` over the grid ``eta1 x eta2`` (no viscous friction).
 
+    Parameters
+    ----------
+    n : float
+        Potential exponent (2 or 5/2).
+    eta1, eta2 : ndarray, shape (M,) and (K,)
+        Kinetic friction forces on granules 1 and 2, scaled (units of ``m v0^2/A``).
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+
     Returns
     -------
     dict of ndarray, shape (len(eta2), len(eta1))
@@ -121,6 +131,17 @@ def collision_grid(n: float, eta1: np.ndarray, eta2: np.ndarray, processes: int 
 def hertz_maps(grid: int = 100, processes: int = 2, n: float = 2.5,
                eta1_max: float = 0.3, eta2_max: float = 0.7) -> dict:
     """The data of Fig. ``hertz``: a ``grid x grid`` map over (eta1, eta2).
+
+    Parameters
+    ----------
+    grid : int
+        Points per axis.
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+    n : float
+        Potential exponent (5/2: Hertz spheres).
+    eta1_max, eta2_max : float
+        Upper ends of the axes, scaled friction forces (units of ``m v0^2/A``); both start at 0.
 
     Returns
     -------
@@ -174,16 +195,28 @@ def fig_velocity(out: Path, m: int = 301) -> Path:
     closed form ``v1 = -eta pi/(2 sqrt2)`` (Sec. II A) overlaid for ``n = 2`` on
     its range ``eta < (1 + pi^2/8)^(-1/2)``; beyond, granule 2 stops first and
     granule 1 is pushed back by the released spring (``v1 -> -1`` for eta >= 1).
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta2).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta, r = _iia_curves(m, 1.2)
     emax = paper.iia_eta_max()
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    ax.plot(eta, r[2.5]["v1"], "k-", lw=1.8, label="engine, n = 5/2 (Hertz spheres)")
-    ax.plot(eta, r[2.0]["v1"], "k--", lw=1.8, label="engine, n = 2")
+    ax.plot(eta, r[2.5]["v1"], "k-", lw=1.8, label="engine, $n = 5/2$ (Hertz spheres)")
+    ax.plot(eta, r[2.0]["v1"], "k--", lw=1.8, label="engine, $n = 2$")
     ec = eta[eta <= emax]
     ax.plot(ec, paper.iia_v1s(ec), color="tab:red", ls=":", lw=2.5,
-            label=r"closed form $-\eta\pi/(2\sqrt{2})$, n = 2")
+            label=r"closed form $-\eta_2\pi/(2\sqrt{2})$, $n = 2$")
     ax.axvline(emax, color="0.6", lw=0.8)
     ax.text(emax + 0.01, -0.05, r"$(1+\pi^2/8)^{-1/2}$" + f" = {emax:.4f}", fontsize=8)
     ax.set_xlabel(r"friction on granule 2, $\eta_2$ (scaled: $m v_0^2/A$)")
@@ -200,19 +233,31 @@ def fig_energy(out: Path, m: int = 301) -> Path:
 
     Closed form ``1 - eta (1-eta^2)^(1/2) pi/sqrt2 + (pi^2/4 - 1) eta^2`` (Sec. II A)
     overlaid for ``n = 2`` on its range; its minimum (eta = 0.4737) marked.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta2).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta, r = _iia_curves(m, 1.2)
     emax = paper.iia_eta_max()
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    ax.plot(eta, r[2.5]["energy"], "k-", lw=1.8, label="engine, n = 5/2 (Hertz spheres)")
-    ax.plot(eta, r[2.0]["energy"], "k--", lw=1.8, label="engine, n = 2")
+    ax.plot(eta, r[2.5]["energy"], "k-", lw=1.8, label="engine, $n = 5/2$ (Hertz spheres)")
+    ax.plot(eta, r[2.0]["energy"], "k--", lw=1.8, label="engine, $n = 2$")
     ec = eta[eta <= emax]
     ax.plot(ec, paper.iia_energy_ratio(ec), color="tab:red", ls=":", lw=2.5,
-            label="closed form $E^{(s)}/E_0$, n = 2")
+            label="closed form $E^{(s)}/E_0$, $n = 2$")
     e_min, r_min = (float(v) for v in paper.iia_energy_minimum())
     ax.plot([e_min], [r_min], "o", color="tab:red", ms=4)
-    ax.annotate(f"minimum {r_min:.4f} at eta = {e_min:.4f}", (e_min, r_min),
+    ax.annotate(f"minimum {r_min:.4f} at $\\eta_2 = {e_min:.4f}$", (e_min, r_min),
                 (e_min - 0.25, r_min - 0.12), fontsize=8,
                 arrowprops={"arrowstyle": "->", "lw": 0.6})
     ax.axvline(emax, color="0.6", lw=0.8)
@@ -289,6 +334,18 @@ def fig_timecompare2(out: Path, m: int = 300) -> Path:
     ``pi/sqrt2 - (pi eta/sqrt2)^(1/2)`` (Eq. ``t0model2``, dotted) and ``t0'`` , the
     separation time if Eqs. (x1model2, x2model2) stayed valid, ``sqrt2 atan(sqrt2/eta)``
     (dashed).  Log eta axis to show both limits (t0 ~ 1/eta, t0' ~ 2/eta).
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta1, log-spaced).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta = np.geomspace(1e-3, 10.0, m)
@@ -308,7 +365,7 @@ def fig_timecompare2(out: Path, m: int = 300) -> Path:
     ax.set_xlim(eta[0], eta[-1])
     ax.set_xlabel(r"friction on granule 1, $\eta_1$ (scaled; $\eta_2 = 0$)")
     ax.set_ylabel(r"time (units of $B = A/v_0$)")
-    ax.set_title("Fig. timecompare2: stopping time of granule 1, n = 2")
+    ax.set_title("Fig. timecompare2: stopping time of granule 1, $n = 2$")
     ax.legend(fontsize=8, loc="lower left")
     ax.grid(alpha=0.3, which="both")
     return _save(fig, out, "timecompare2")
@@ -323,6 +380,18 @@ def fig_timecompare3(out: Path, m: int = 220) -> Path:
     engine's state at its first stop.  Where dashed < solid (eta > 0.2196) granule
     1 stops before separation: no backscattering.  Only ``eta < 0.44402`` (granule 1
     slides back) is meaningful.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta1).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta_c = float(paper.iib_slip_critical_eta_exact())
@@ -338,7 +407,7 @@ def fig_timecompare3(out: Path, m: int = 220) -> Path:
             label=r"small $\eta$: $(\pi\eta/\sqrt{2})^{1/2} - \eta$")
     ax.plot(eta, ts, "k--", lw=1.4, label="granule 1 stops again (Eq. motionx1)")
     ax.axvline(eta_b, color="tab:red", lw=0.8)
-    ax.text(eta_b + 0.005, 0.15, f"$\\eta$ = {eta_b:.4f}\n(printed ~0.22)", fontsize=8,
+    ax.text(eta_b + 0.005, 0.15, f"$\\eta_1 = {eta_b:.4f}$\n(printed ~0.22)", fontsize=8,
             color="tab:red")
     ax.axvline(eta_c, color="0.5", lw=0.8, ls="--")
     ax.text(eta_c - 0.115, 0.9, f"slip limit {eta_c:.4f}\n(printed 0.439)", fontsize=8,
@@ -347,7 +416,7 @@ def fig_timecompare3(out: Path, m: int = 220) -> Path:
     ax.set_ylim(0, 1.0)
     ax.set_xlabel(r"friction on granule 1, $\eta_1$ (scaled; $\eta_2 = 0$)")
     ax.set_ylabel(r"time after $t_0$ (units of $B = A/v_0$)")
-    ax.set_title("Fig. timecompare3: end of the collision, n = 2")
+    ax.set_title("Fig. timecompare3: end of the collision, $n = 2$")
     ax.legend(fontsize=8, loc="upper left")
     ax.grid(alpha=0.3)
     return _save(fig, out, "timecompare3")
@@ -358,16 +427,28 @@ def fig_finalv1(out: Path, m: int = 401) -> Path:
 
     Engine for ``n = 2`` and ``n = 5/2``; the exact ``n = 2`` maximum of the
     backscattering (3.119 % at eta = 0.0940) and its end (eta = 0.2196) marked.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of eta1).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     eta = _eta_axis(0.0, 0.35, m)
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    for n, ls, lab in ((2.0, "--", "engine, n = 2"), (2.5, "-", "engine, n = 5/2")):
+    for n, ls, lab in ((2.0, "--", "engine, $n = 2$"), (2.5, "-", "engine, $n = 5/2$")):
         r = collision_values(n, [(e, 0.0, 0.0, 0.0) for e in eta])
         ax.plot(eta, r["v1"], color="k", ls=ls, lw=1.8, label=lab)
     e_star, v_star = (float(v) for v in paper.iib_max_backscatter_exact(dps=12))
     ax.plot([e_star], [-v_star], "o", color="tab:red", ms=4)
-    ax.annotate(f"max backscattering {100 * v_star:.3f} %\nat eta = {e_star:.4f} (n = 2)",
+    ax.annotate(f"max backscattering {100 * v_star:.3f} %\nat $\\eta_1 = {e_star:.4f}$ ($n = 2$)",
                 (e_star, -v_star), (e_star + 0.05, -v_star + 0.004), fontsize=8,
                 arrowprops={"arrowstyle": "->", "lw": 0.6})
     eta_b = float(paper.iib_backscatter_threshold_eta_exact())
@@ -393,6 +474,23 @@ def fig_hertz(out: Path, grid: int = 100, processes: int = 2, data: Optional[dic
     both granules move at the end of the collision (outcome
     ``backscatter_and_propagation``); the rest is white.  The outline of that
     region is drawn in red.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    grid : int
+        Points per axis of the map (ignored with ``data``).
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+    data : dict, optional
+        The output of :func:`hertz_maps` (``eta1``, ``eta2``, ``outcome``, ``v1``, ``v2``,
+        ``energy``) to draw instead of computing it.
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     d = data if data is not None else hertz_maps(grid, processes)
@@ -407,19 +505,23 @@ def fig_hertz(out: Path, grid: int = 100, processes: int = 2, data: Optional[dic
     # (the nonmonotonic Fig. finalv1), coarse ones elsewhere
     level_sets = (np.r_[0.005, 0.01, 0.015, 0.02, np.arange(0.05, 0.66, 0.05)],
                   np.arange(0.1, 1.0, 0.1), np.r_[0.3, 0.35, np.arange(0.4, 1.0, 0.1)])
+    lines = []
     for ax, (f, lab), levels in zip(axes, fields, level_sets):
         z = np.where(both, f, np.nan)
         im = ax.imshow(z, origin="lower", extent=ext, aspect="auto", cmap="Greys",
                        interpolation="nearest")
-        cs = ax.contour(e1, e2, z, levels=levels, colors="tab:blue", linewidths=0.8)
-        ax.clabel(cs, fontsize=6, fmt="%.3g")
+        lines.append(ax.contour(e1, e2, z, levels=levels, colors="tab:blue", linewidths=0.8))
         ax.contour(e1, e2, both.astype(float), levels=[0.5], colors="tab:red", linewidths=1.0)
         fig.colorbar(im, ax=ax, label=lab, shrink=0.9)
         ax.set_xlabel(r"friction on granule 1, $\eta_1$ (scaled)")
         ax.set_ylabel(r"friction on granule 2, $\eta_2$ (scaled)")
         ax.set_title(lab.split(" (")[0], fontsize=10)
-    fig.suptitle(f"Fig. hertz: n = 5/2, end of collision where both granules move "
-                 f"({len(e1)} x {len(e2)} event-stepper collisions)", fontsize=11)
+    fig.suptitle(f"Fig. hertz: $n = 5/2$, end of collision where both granules move "
+                 f"(${len(e1)} \\times {len(e2)}$ event-stepper collisions)", fontsize=11)
+    # labelled once every panel and colour bar is in place: the labels are kept
+    # apart in pixels, which the layout fixes
+    for ax, cs in zip(axes, lines):
+        label_contours(ax, cs)
     return _save(fig, out, "hertz")
 
 
@@ -433,6 +535,18 @@ def fig_finalv1m5(out: Path, m: int = 281) -> Path:
     -0.1 (gamma1 < gamma2, solid), as in the caption.  Engine (black) and the
     first-order-in-delta closed forms of Sec. III (red, thin).  For gamma^2 >= 8
     the collision never ends (no point plotted).
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    m : int
+        Points along the horizontal axis (values of gamma).
+
+    Returns
+    -------
+    Path
+        The PNG written.
     """
     plt = _plt()
     gam = np.linspace(0.01, 2.8, m)
@@ -440,20 +554,20 @@ def fig_finalv1m5(out: Path, m: int = 281) -> Path:
     for delta, ls in ((0.1, "--"), (0.0, ":"), (-0.1, "-")):
         g1, g2 = paper.iii_gammas(gam, delta)
         r = collision_values(2.0, [(0.0, 0.0, a, b) for a, b in zip(g1, g2)])
+        order = (r" ($\gamma_1 > \gamma_2$)" if delta > 0
+                 else r" ($\gamma_1 < \gamma_2$)" if delta < 0 else "")
         ax.plot(gam, r["v1"], color="k", ls=ls, lw=1.8,
-                label=f"engine, $\\delta$ = {delta:+.1f}" + (" ($\\gamma_1 > \\gamma_2$)" if delta > 0
-                                                          else " ($\\gamma_1 < \\gamma_2$)" if delta < 0
-                                                          else ""))
+                label=f"engine, $\\delta = {signed(delta)}$" + order)
         if delta != 0.0:
             ax.plot(gam, paper.iii_v1s_first_order(gam, delta), color="tab:red", ls=ls, lw=0.9,
-                    label=f"first order in $\\delta$, $\\delta$ = {delta:+.1f}")
+                    label=f"first order in $\\delta$, $\\delta = {signed(delta)}$")
     g_star = float(paper.iii_optimal_gamma_zeroth()[0])
     ax.plot([g_star], [-0.125], "o", color="tab:red", ms=4)
-    ax.annotate(f"$\\delta$ = 0 optimum: $\\gamma$ = {g_star:.4f}, $v_1 = -1/8$", (g_star, -0.125),
+    ax.annotate(f"$\\delta = 0$ optimum: $\\gamma = {g_star:.4f}$, $v_1 = -1/8$", (g_star, -0.125),
                 (g_star - 0.1, -0.03), fontsize=8, arrowprops={"arrowstyle": "->", "lw": 0.6})
     ax.set_xlabel(r"mean hydrodynamic friction $\gamma$ (scaled: $m/B$)")
     ax.set_ylabel(r"$v_1^{(s)}$ at end of collision (units of $v_0$)")
-    ax.set_title(r"Fig. finalv1m5: $\gamma_{1,2} = \gamma(1 \pm \delta)$, n = 2")
+    ax.set_title(r"Fig. finalv1m5: $\gamma_{1,2} = \gamma(1 \pm \delta)$, $n = 2$")
     ax.set_xlim(0, 2.85)
     ax.legend(fontsize=7, loc="lower right")
     ax.grid(alpha=0.3)
@@ -475,6 +589,19 @@ FIGURES: dict[str, Callable[..., Path]] = {
 def make_figures(out: Path, only: Optional[Sequence[str]] = None, grid: int = 100,
                  processes: int = 2, log=print) -> dict:
     """Draw the paper's figures into ``out`` and time each.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written into (created); the file is ``out/paper_<name>.png``.
+    only : sequence of str, optional
+        Names from :data:`FIGURES` (default: all of them).
+    grid : int
+        Points per axis of the (eta1, eta2) map of Fig. ``hertz``.
+    processes : int
+        Worker processes (``fork``); 1 runs in this process.
+    log : callable or None
+        Called with one line per figure (name, seconds, path); None is silent.
 
     Returns
     -------
@@ -500,7 +627,18 @@ def make_figures(out: Path, only: Optional[Sequence[str]] = None, grid: int = 10
 
 
 def add_figures_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``granular-chain figures`` to the CLI's subparsers."""
+    """Add ``granular-chain figures`` to the CLI's subparsers.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``figures`` subparser.
+    """
     p = subparsers.add_parser(
         "figures", help="redraw every figure of the two-granule paper from the engine",
         description="Redraw the figures of Rosas, Buceta and Lindenberg, 'Dynamics of Two "
@@ -517,7 +655,18 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run_figures_command(args) -> int:
-    """Run ``granular-chain figures``; returns the exit status."""
+    """Run ``granular-chain figures``; returns the exit status.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed ``--out``, ``--only``, ``--grid``, ``--processes``.
+
+    Returns
+    -------
+    int
+        0 on success, 2 on a bad argument.
+    """
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
     if args.grid < 2 or args.processes < 1:
         print("error: --grid must be >= 2 and --processes >= 1", file=sys.stderr)

@@ -71,6 +71,15 @@ def first_root_after(f, t_end, h):
     """First root of ``f`` on ``(0, t_end]``: scan in steps ``h`` for a change from the
     sign ``f`` has just after 0 (``f(0)`` may vanish), then :func:`bracket_root`.
 
+    Parameters
+    ----------
+    f : callable
+        ``f(t)`` of an mpf, continuous.
+    t_end : mpf
+        End of the scanned interval (same units as ``t``).
+    h : mpf
+        Scan step (same units as ``t``); a pair of roots closer than ``h`` can be missed.
+
     Returns
     -------
     mpf or None
@@ -90,6 +99,20 @@ def golden_min(f, a, b, tol):
     """Golden-section search for the minimum of a unimodal ``f`` on ``[a, b]``.
 
     Works in the number type of ``a`` and ``b`` (float or mpmath), to width ``tol``.
+
+    Parameters
+    ----------
+    f : callable
+        Unimodal function of one number on ``[a, b]``.
+    a, b : float or mpf
+        Ends of the interval.
+    tol : float or mpf
+        Width of the final interval (same units as ``a``).
+
+    Returns
+    -------
+    float or mpf
+        Midpoint of the final interval.
     """
     ratio = ((a * 0 + 5) ** 0.5 - 1) / 2
     c, d = b - ratio * (b - a), a + ratio * (b - a)

@@ -29,6 +29,13 @@ def iii_gammas(gamma, delta):
     formulas says "gamma_2 > gamma_1 (delta > 0)", contradicting this definition
     and the caption of Fig. finalv1m5; see :func:`iii_dvs_ddelta`.)
 
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
     Returns
     -------
     (gamma1, gamma2)
@@ -37,7 +44,18 @@ def iii_gammas(gamma, delta):
 
 
 def iii_omega(gamma):
-    """Sec. III: ``omega = sqrt(8 - gamma^2) / 2`` (exact; real for gamma^2 < 8)."""
+    """Sec. III: ``omega = sqrt(8 - gamma^2) / 2`` (exact; real for gamma^2 < 8).
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        Angular frequency ``omega`` of the damped relative motion, units of ``1/B`` (NaN beyond ``gamma^2 = 8``).
+    """
     arith = arithmetic_for(gamma)
     gamma = arith.num(gamma)
     return arith.sqrt(8 - gamma**2) / 2
@@ -49,12 +67,33 @@ def iii_separates(gamma):
     ``x_-`` obeys ``x_-'' + gamma x_-' + 2 x_- = 0``, ``x_-(0) = 0``, ``x_-'(0) = 1``:
     for ``gamma^2 >= 8`` it is ``t e^{-sqrt2 t}`` or ``e^{-gamma t/2} sinh(kappa t)/kappa``,
     positive for all ``t > 0``.
+
+    Parameters
+    ----------
+    gamma : float or ndarray
+        Hydrodynamic friction coefficient, scaled (units of ``m/B``).
+
+    Returns
+    -------
+    bool or ndarray of bool
+        True where the collision ends.
     """
     return np.asarray(gamma, dtype=float) ** 2 < 8.0
 
 
 def iii_t0(gamma):
-    """Sec. III: separation time ``t0 = pi/omega`` for ``delta = 0`` (exact; inf if gamma^2 >= 8)."""
+    """Sec. III: separation time ``t0 = pi/omega`` for ``delta = 0`` (exact; inf if gamma^2 >= 8).
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+
+    Returns
+    -------
+    float or mpmath.mpf
+        Separation time, units of ``B``.
+    """
     arith = arithmetic_for(gamma)
     if arith is Multiprecision:
         g = mpmath.mpf(gamma)
@@ -70,6 +109,18 @@ def iii_xminus_zeroth(t, gamma):
 
     (The paper writes ``x_-(t_0) = e^{-gamma t_0/2} sin(omega t)/omega``; the mixed
     ``t_0``/``t`` is a harmless typo.)
+
+    Parameters
+    ----------
+    t : float, ndarray or mpmath.mpf
+        Time since first contact, units of ``B``.
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        Relative coordinate ``x_-``, units of ``A``.
     """
     arith = arithmetic_for(t, gamma)
     t, gamma = arith.num(t), arith.num(gamma)
@@ -88,11 +139,14 @@ def iii_laplace_system_printed(s, gamma, delta):
     Parameters
     ----------
     s : complex or float
+        Laplace variable, units of ``1/B``.
     gamma, delta : float
+        Mean hydrodynamic friction (units of ``m/B``) and its asymmetry (dimensionless).
 
     Returns
     -------
     (ndarray (2, 2), ndarray (2,))
+        ``M`` and ``b``.
     """
     M = np.array([[gamma * s + s**2, delta * gamma * s],
                   [delta * gamma * s, 2 + gamma * s + s**2]])
@@ -105,6 +159,15 @@ def iii_laplace_exact(s, gamma, delta):
     Transforming ``x1'' = -gamma1 x1' - (x1 - x2)``, ``x2'' = -gamma2 x2' + (x1 - x2)``
     with ``x(0) = 0``, ``v1(0) = 1``, ``v2(0) = 0``:
     ``(s^2 + gamma1 s + 1) X1 - X2 = 1``, ``-X1 + (s^2 + gamma2 s + 1) X2 = 0``.
+
+    Parameters
+    ----------
+    s : complex, float or mpmath number
+        Laplace variable, units of ``1/B``.
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
 
     Returns
     -------
@@ -127,13 +190,42 @@ def iii_Xplus_first_order_printed(s, gamma, delta):
     ``X_-^{(0)} = 1/(2 + s(s+gamma))``, so the ``s`` cancels
     (:func:`iii_Xplus_first_order_corrected`).  The printed velocities ``v^(s)``
     are nevertheless right, so this is a typo in the intermediate result.
+
+    Parameters
+    ----------
+    s : complex, float or mpmath number
+        Laplace variable, units of ``1/B``.
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
+    Returns
+    -------
+    same type as s
+        ``X_+(s)``, units of ``A B``.
     """
     q = 2 + s * (gamma + s)
     return 1 / (s * (gamma + s)) - delta * gamma / (s * (gamma + s) * q)
 
 
 def iii_Xplus_first_order_corrected(s, gamma, delta):
-    """Corrected first-order ``X_+(s) = 1/(s(gamma+s)) - delta gamma / ((gamma+s)[2 + s(gamma+s)])``."""
+    """Corrected first-order ``X_+(s) = 1/(s(gamma+s)) - delta gamma / ((gamma+s)[2 + s(gamma+s)])``.
+
+    Parameters
+    ----------
+    s : complex, float or mpmath number
+        Laplace variable, units of ``1/B``.
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
+    Returns
+    -------
+    same type as s
+        ``X_+(s)``, units of ``A B``.
+    """
     q = 2 + s * (gamma + s)
     return 1 / (s * (gamma + s)) - delta * gamma / ((gamma + s) * q)
 
@@ -142,6 +234,20 @@ def iii_Xminus_first_order(s, gamma, delta):
     """Sec. III, first-order ``X_-(s)`` as printed (correct).
 
     ``X_- = 1/(2 + s(gamma+s)) - delta gamma / ((gamma+s)[2 + s(gamma+s)])``.
+
+    Parameters
+    ----------
+    s : complex, float or mpmath number
+        Laplace variable, units of ``1/B``.
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
+    Returns
+    -------
+    same type as s
+        ``X_-(s)``, units of ``A B``.
     """
     q = 2 + s * (gamma + s)
     return 1 / q - delta * gamma / ((gamma + s) * q)
@@ -152,6 +258,18 @@ def iii_epsilon(gamma, delta):
 
     Separation time ``t1 = pi/omega + epsilon/omega``; ``epsilon < 0`` for
     ``delta > 0`` (larger friction on granule 1 ends the collision earlier).
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        ``epsilon``, dimensionless (a phase).
     """
     arith = arithmetic_for(gamma, delta)
     gamma, delta = arith.num(gamma), arith.num(delta)
@@ -160,7 +278,20 @@ def iii_epsilon(gamma, delta):
 
 
 def iii_t_separation_first_order(gamma, delta):
-    """Sec. III: ``t1 = t0 + epsilon/omega = pi/omega + epsilon/omega`` (error O(delta^2))."""
+    """Sec. III: ``t1 = t0 + epsilon/omega = pi/omega + epsilon/omega`` (error O(delta^2)).
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        Separation time ``t1``, units of ``B``.
+    """
     arith = arithmetic_for(gamma, delta)
     w = iii_omega(arith.num(gamma))
     return (arith.pi() + iii_epsilon(gamma, delta)) / w
@@ -171,6 +302,18 @@ def iii_v1s_first_order(gamma, delta):
 
     ``v1 = (1 - e^{g})/2 e^{-2g} + delta gamma^2/4 (1 + 2 e^{g} + e^{2g}) e^{-3g}``,
     ``g = gamma pi / (2 omega)``.
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        ``v1^(s)``, units of ``v0``.
     """
     arith = arithmetic_for(gamma, delta)
     gamma, delta = arith.num(gamma), arith.num(delta)
@@ -186,6 +329,18 @@ def iii_v2s_first_order(gamma, delta):
     [8 omega^2 + (12 omega^2 - gamma^2 + 8) e^{g} + (4 omega^2 - gamma^2 + 8) e^{2g}] e^{-3g}``.
     Since ``8 - gamma^2 = 4 omega^2`` the bracket is ``8 omega^2 (1 + e^g)^2`` and the
     first-order term equals that of ``v1``: see :func:`iii_dvs_ddelta`.
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+    delta : float or mpmath.mpf
+        Asymmetry of the two coefficients, dimensionless (``delta_1 = -delta_2 = delta``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        ``v2^(s)``, units of ``v0``.
     """
     arith = arithmetic_for(gamma, delta)
     gamma, delta = arith.num(gamma), arith.num(delta)
@@ -206,6 +361,16 @@ def iii_dvs_ddelta(gamma):
     **Erratum** in the text: "greater if gamma_2 > gamma_1 (delta > 0)" must read
     "(delta < 0)"; the caption of Fig. finalv1m5 (``gamma_1 > gamma_2`` for
     ``delta = 0.1``) agrees with the definition.
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        The derivative, units of ``v0``.
     """
     arith = arithmetic_for(gamma)
     gamma = arith.num(gamma)
@@ -218,6 +383,16 @@ def iii_energy_ratio_zeroth(gamma):
 
     For ``delta = 0`` (exact): ``E^(s)/E0 = v1^2 + v2^2 = (E^4 + E^2)/2`` with
     ``E = e^{-gamma pi/(2 omega)}``, decreasing in gamma on ``0 <= gamma < sqrt8``.
+
+    Parameters
+    ----------
+    gamma : float, ndarray or mpmath.mpf
+        Mean hydrodynamic friction coefficient, scaled (units of ``m/B``).
+
+    Returns
+    -------
+    float, ndarray or mpmath.mpf
+        ``E^(s)/E0``, dimensionless.
     """
     arith = arithmetic_for(gamma)
     gamma = arith.num(gamma)

@@ -21,7 +21,33 @@ __all__ = ["SweepStats", "run_sweep", "run_batch"]
 
 @dataclass
 class SweepStats:
-    """What a call of :func:`run_sweep` did."""
+    """What a call of :func:`run_sweep` did.
+
+    Attributes
+    ----------
+    points : int
+        Points in the grid.
+    skipped : int
+        Points already in the results file.
+    computed : int
+        Points evaluated by this call (rows received from the workers).
+    batches : int
+        Batches submitted.
+    wall : float
+        Seconds from the first submission to the last row written.
+    workers : int
+        Worker processes.
+    results : Path
+        The results.csv.
+    interrupted : bool
+        The sweep was stopped (Ctrl-C) before every point was done.
+    setup : float
+        Seconds to start the cluster.
+    sum_eval : float
+        Sum of the points' evaluation times, seconds.
+    sum_kernel : float
+        Sum of the points' stepping times, seconds.
+    """
 
     points: int               # points in the grid
     skipped: int              # already in the results file
@@ -36,12 +62,25 @@ class SweepStats:
     sum_kernel: float = 0.0   # sum of wall_time (stepping) over the computed points
 
     def overhead_per_point(self) -> float:
-        """Seconds per point that were not spent stepping, with the workers' time pooled."""
+        """Seconds per point that were not spent stepping, with the workers' time pooled.
+
+        Returns
+        -------
+        float
+            Seconds (0 when nothing was computed).
+        """
         if not self.computed:
             return 0.0
         return (self.wall * self.workers - self.sum_kernel) / self.computed
 
     def as_dict(self) -> dict:
+        """The fields (paths as text) with ``overhead_per_point_s`` and ``points_per_s``.
+
+        Returns
+        -------
+        dict
+            JSON-ready.
+        """
         d = {k: (str(v) if isinstance(v, Path) else v) for k, v in self.__dict__.items()}
         d["overhead_per_point_s"] = self.overhead_per_point()
         d["points_per_s"] = self.computed / self.wall if self.wall > 0 else None
@@ -53,6 +92,24 @@ def run_batch(scene_data, source, paths, batch, options):
 
     ``evaluate_point`` is looked up on the :mod:`granular_chain.sweep` package at
     each call, so that replacing it there (tests count the calls) takes effect.
+
+    Parameters
+    ----------
+    scene_data : dict
+        The scene file's mapping (as read from YAML), not yet validated.
+    source : str
+        Path of the scene file (for messages and relative paths).
+    paths : sequence of str
+        Dotted paths of the axes, in order.
+    batch : list of tuple
+        Coordinates of the points, one value per axis.
+    options : PointOptions
+        How each point is run and reduced.
+
+    Returns
+    -------
+    list of dict
+        One row per point (:func:`evaluate_point`).
     """
     from .. import sweep
 
@@ -78,6 +135,7 @@ def run_sweep(scene_path, axes: Sequence[Axis], *, out_dir, fixed: Sequence[str]
     fixed : sequence of str
         ``dotted.path=value`` overrides applied to every point (like ``--set``).
     options : PointOptions
+        How each point is run and reduced.
     executor : {'dask', 'serial'}
         'serial' runs the batches in this process, in order (tests, debugging).
     scheduler : str, optional

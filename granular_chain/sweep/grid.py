@@ -24,7 +24,17 @@ class SweepError(ValueError):
 
 @dataclass(frozen=True)
 class Axis:
-    """One axis of a sweep: a dotted path and its values (in order)."""
+    """One axis of a sweep: a dotted path and its values (in order).
+
+    Attributes
+    ----------
+    path : str
+        Dotted path of the scene field varied.
+    values : tuple
+        Its values, in order.
+    spec : str
+        The ``--grid``/``--list`` text it was parsed from.
+    """
 
     path: str
     values: tuple
@@ -35,7 +45,23 @@ class Axis:
 
 
 def parse_grid(spec: str) -> Axis:
-    """``path=start:stop:num`` (inclusive, like numpy.linspace) or ``...:num:log`` (geomspace)."""
+    """``path=start:stop:num`` (inclusive, like numpy.linspace) or ``...:num:log`` (geomspace).
+
+    Parameters
+    ----------
+    spec : str
+        ``path=start:stop:num`` or ``path=start:stop:num:log``.
+
+    Returns
+    -------
+    Axis
+        The axis.
+
+    Raises
+    ------
+    SweepError
+        A malformed spec.
+    """
     path, _, rng = spec.partition("=")
     parts = rng.split(":")
     if not path or len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "log"):
@@ -67,7 +93,23 @@ def _is_int(text: str) -> bool:
 
 
 def parse_list(spec: str) -> Axis:
-    """``path=a,b,c``: values parsed as YAML (numbers, strings, ``[..]`` lists are not split)."""
+    """``path=a,b,c``: values parsed as YAML (numbers, strings, ``[..]`` lists are not split).
+
+    Parameters
+    ----------
+    spec : str
+        ``path=a,b,c``.
+
+    Returns
+    -------
+    Axis
+        The axis.
+
+    Raises
+    ------
+    SweepError
+        A malformed spec.
+    """
     path, _, raw = spec.partition("=")
     if not path or not raw:
         raise SweepError(f"--list {spec!r}: expected dotted.path=a,b,c")
@@ -98,12 +140,34 @@ def _split_top(raw: str) -> list[str]:
 
 
 def grid_points(axes: Sequence[Axis]) -> list[tuple]:
-    """Every combination of axis values, the last axis varying fastest."""
+    """Every combination of axis values, the last axis varying fastest.
+
+    Parameters
+    ----------
+    axes : sequence of Axis
+        The axes of the grid.
+
+    Returns
+    -------
+    list of tuple
+        One coordinate tuple per point.
+    """
     return list(itertools.product(*(a.values for a in axes)))
 
 
 def coord_text(value) -> str:
-    """How a coordinate is written in the CSV (and matched on resume)."""
+    """How a coordinate is written in the CSV (and matched on resume).
+
+    Parameters
+    ----------
+    value : float, int, str or list
+        A coordinate.
+
+    Returns
+    -------
+    str
+        ``repr`` for a float, ``str`` for int or text, JSON otherwise.
+    """
     if isinstance(value, float):
         return repr(value)
     if isinstance(value, (int, str)) and not isinstance(value, bool):
@@ -114,7 +178,22 @@ def coord_text(value) -> str:
 def set_path(data: dict, path: str, value) -> None:
     """Set one field of a raw scene mapping with :func:`granular_chain.scene.set_path`
     (the engine's one dotted-path setter: ``c[i]`` sets one item of a list or of a
-    per-granule field); a refusal is raised as :class:`SweepError`."""
+    per-granule field); a refusal is raised as :class:`SweepError`.
+
+    Parameters
+    ----------
+    data : dict
+        Raw scene mapping, changed in place.
+    path : str
+        Dotted path (``a.b[i]``).
+    value : object
+        New value.
+
+    Raises
+    ------
+    SweepError
+        The path or value is refused.
+    """
     try:
         _scene_set_path(data, path, value, source="sweep")
     except SceneError as exc:

@@ -8,10 +8,15 @@ from typing import Optional
 
 import numpy as np
 
+from ..plotting import label_contours, tex_name
 from .grid import SweepError
 from .resume import read_results
 
 __all__ = ["plot_heatmap", "slug"]
+
+# colour-bar labels of the quantities whose name is not a symbol (v1 -> $v_1$ is made
+# by tex_name)
+_QUANTITY_LABELS = {"energy_ratio": r"$E/E_0$ at the end", "E0": r"$E_0$"}
 
 
 def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional[dict] = None,
@@ -27,12 +32,31 @@ def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional
         Coordinate columns (dotted paths) on the horizontal and vertical axes.
     quantity : str
         Column to show; a text column (``status``, ``outcome``) is shown as categories.
+    path : str or Path
+        PNG written (its folder is created).
     mask : dict, optional
         ``{column: value}``: only points where every column equals its value are
         coloured; the rest are grey (the paper's maps show the
         backscatter-and-propagation region only).
+    title : str, optional
+        Title (default: the quantity and the mask).
+    contours : bool
+        Draw labelled iso-lines over a numeric quantity.
     transform : callable, optional
         Applied to the numbers before plotting (e.g. ``np.negative`` for -v1).
+    label : str, optional
+        Colour-bar label (default: the quantity, in mathtext when it is a symbol such
+        as ``v1``).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    SweepError
+        A column named is not in the results.
     """
     import matplotlib
     matplotlib.use("Agg")
@@ -75,13 +99,15 @@ def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional
         colorbar.ax.set_yticklabels(cats, fontsize=7)
     else:
         im = ax.pcolormesh(xs, ys, grid, cmap="Greys" if mask else "viridis", shading="nearest")
-        fig.colorbar(im, ax=ax, label=label or quantity)
+        fig.colorbar(im, ax=ax, label=label or _QUANTITY_LABELS.get(quantity, tex_name(quantity)))
         if contours and xs.size > 3 and ys.size > 3 and np.isfinite(grid).sum() > 10:
             try:
                 cs = ax.contour(xs, ys, grid, levels=8, colors="tab:red", linewidths=0.7)
-                ax.clabel(cs, fontsize=6, fmt="%.3g")
             except (ValueError, TypeError):
-                pass
+                cs = None
+            if cs is not None:
+                fig.tight_layout()  # the labels are kept apart in pixels: lay out first
+                label_contours(ax, cs)
     if not seen.all():
         ax.text(0.01, 0.01, f"{int((~seen).sum())} points not computed", transform=ax.transAxes,
                 fontsize=7)
@@ -107,5 +133,16 @@ def _same(value, want) -> bool:
 
 
 def slug(name: str) -> str:
-    """``name`` as a file-name part (runs of other characters become '_')."""
+    """``name`` as a file-name part (runs of other characters become '_').
+
+    Parameters
+    ----------
+    name : str
+        Any text.
+
+    Returns
+    -------
+    str
+        Letters, digits, ``_``, ``.`` and ``-`` only.
+    """
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_")

@@ -41,7 +41,17 @@ QUANTITIES = (
 
 @dataclass(frozen=True)
 class PointOptions:
-    """How each point is run and reduced (sent to the workers with every batch)."""
+    """How each point is run and reduced (sent to the workers with every batch).
+
+    Attributes
+    ----------
+    frames : bool
+        Keep the scene's output cadence (the pulse quantities need frames).
+    granules : tuple of int
+        Granules whose final velocity is a column (negative counts from the end).
+    first : int
+        Backscatter quantities over the first this many granules.
+    """
 
     frames: bool = False       # keep the scene's output cadence (pulse quantities need it)
     granules: tuple = (0, 1, -1)  # v_final columns
@@ -49,7 +59,18 @@ class PointOptions:
 
 
 def value_columns(granules) -> list[str]:
-    """The ``v_final[g]`` columns of the granules ``granules``."""
+    """The ``v_final[g]`` columns of the granules ``granules``.
+
+    Parameters
+    ----------
+    granules : sequence of int
+        Granule indices.
+
+    Returns
+    -------
+    list of str
+        Column names.
+    """
     return [f"v_final[{g}]" for g in granules]
 
 
@@ -60,6 +81,24 @@ def evaluate_point(scene_data: dict, source: str, paths: Sequence[str], coords: 
     Never raises for a bad point: a scene error or a refused run becomes a row
     with ``status = error`` and the reason in ``message`` (the sweep goes on, and
     the point counts as done).
+
+    Parameters
+    ----------
+    scene_data : dict
+        The scene file's mapping (as read from YAML), not yet validated.
+    source : str
+        Path of the scene file (for messages and relative paths).
+    paths : sequence of str
+        Dotted paths of the axes, in order.
+    coords : sequence
+        One value per path.
+    options : PointOptions
+        How each point is run and reduced.
+
+    Returns
+    -------
+    dict
+        Column -> value: the coordinates, :data:`QUANTITIES` and the ``v_final[g]`` columns.
     """
     from ..scene import SceneError, scene_from_dict, set_path
     from ..simulate import SimulationError, simulate

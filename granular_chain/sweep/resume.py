@@ -23,13 +23,35 @@ _SAME_AS_BEFORE = ("scene_sha256", "fixed", "frames", "first")
 
 
 def scene_text_hash(text: str) -> str:
-    """First 16 hex digits of the SHA-256 of the scene file's text."""
+    """First 16 hex digits of the SHA-256 of the scene file's text.
+
+    Parameters
+    ----------
+    text : str
+        The scene file's text.
+
+    Returns
+    -------
+    str
+        16 hex digits.
+    """
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def check_sweep_folder(out_dir: Path) -> None:
     """A sweep writes into a new or empty folder, or resumes one holding its own
-    sweep.json; any other folder is the user's and is refused (nothing changed)."""
+    sweep.json; any other folder is the user's and is refused (nothing changed).
+
+    Parameters
+    ----------
+    out_dir : Path
+        The sweep's folder.
+
+    Raises
+    ------
+    SweepError
+        The folder is not the sweep's to write.
+    """
     if out_dir.is_symlink() or (out_dir.exists() and not out_dir.is_dir()):
         raise SweepError(f"--out {out_dir}: is not a folder")
     if not out_dir.exists() or not any(out_dir.iterdir()):
@@ -57,10 +79,16 @@ def open_results(out_dir: Path, meta: dict, axes: Sequence[Axis], header: list[s
         results.csv made from something else is refused; written to sweep.json
         with the axes.
     axes : sequence of Axis
+        The sweep's axes.
     header : list of str
         The CSV columns, the axes' dotted paths first.
     restart : bool
         Discard an existing results.csv.
+
+    Returns
+    -------
+    (Path, set of tuple)
+        results.csv and the coordinates (as text) already in it.
     """
     check_sweep_folder(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -82,7 +110,22 @@ def open_results(out_dir: Path, meta: dict, axes: Sequence[Axis], header: list[s
 
 
 def read_done(path: Path, header: list[str], paths: Sequence[str]) -> set:
-    """Coordinates already in results.csv; drops a last row cut short by a hard kill."""
+    """Coordinates already in results.csv; drops a last row cut short by a hard kill.
+
+    Parameters
+    ----------
+    path : Path
+        results.csv (may be missing).
+    header : list of str
+        Expected columns.
+    paths : sequence of str
+        Dotted paths of the axes, in order.
+
+    Returns
+    -------
+    set of tuple
+        Coordinates (as written by :func:`coord_text`) of the rows present.
+    """
     if not path.exists():
         return set()
     text = path.read_text()
@@ -106,7 +149,18 @@ def read_done(path: Path, header: list[str], paths: Sequence[str]) -> set:
 
 
 def read_results(path) -> dict[str, np.ndarray]:
-    """results.csv as columns: numbers as float arrays (blank = nan), the rest as str arrays."""
+    """results.csv as columns: numbers as float arrays (blank = nan), the rest as str arrays.
+
+    Parameters
+    ----------
+    path : str or Path
+        A results.csv.
+
+    Returns
+    -------
+    dict of ndarray
+        Column -> values.
+    """
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(fh))
     cols = {}

@@ -74,6 +74,7 @@ class Boundary:
     Attributes
     ----------
     param : str
+        The parameter varied (eta1, eta2, eta, gamma1, gamma2, gamma or n).
     value : float
         The boundary: midpoint of ``bracket``.
     bracket : (float, float)
@@ -109,6 +110,12 @@ class Boundary:
     events_above: tuple = ()
 
     def to_dict(self) -> dict:
+        """The fields as a JSON-ready dict (tuples as lists).
+
+        Returns
+        -------
+        dict
+        """
         d = asdict(self)
         d["bracket"] = list(self.bracket)
         d["events_below"], d["events_above"] = list(self.events_below), list(self.events_above)
@@ -133,6 +140,12 @@ class Boundaries(list):
     fixed: dict = {}
 
     def to_dict(self) -> dict:
+        """The boundaries and the scan's counts as a JSON-ready dict.
+
+        Returns
+        -------
+        dict
+        """
         return {"boundaries": [b.to_dict() for b in self], "grid": self.grid,
                 "scan_collisions": self.scan_collisions, "scan_seconds": self.scan_seconds,
                 "fixed": dict(self.fixed)}
@@ -441,7 +454,18 @@ class _BadInput(Exception):
 
 
 def add_boundaries_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``granular-chain boundaries``."""
+    """Register ``granular-chain boundaries``.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The CLI's subparsers (``parser.add_subparsers()``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``boundaries`` subparser.
+    """
     p = subparsers.add_parser(
         "boundaries", help="find where the two-granule outcome changes along a parameter",
         description="Outcome boundaries of the two-granule collision (event stepper): every "
@@ -523,7 +547,18 @@ def _table(res: Boundaries) -> str:
 
 
 def run_boundaries_command(args) -> int:
-    """Entry point of ``granular-chain boundaries``: 0 ok, 2 bad input."""
+    """Entry point of ``granular-chain boundaries``: 0 ok, 2 bad input.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments of ``granular-chain boundaries``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 ok, 2 bad input.
+    """
     try:
         fixed, opts = _fixed_from(args)
         if args.param not in PARAMS:

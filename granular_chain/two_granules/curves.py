@@ -16,6 +16,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..plotting import tex_name
 from .boundaries import PARAMS, _Problem, _refine
 from .outcomes import OUTCOMES
 
@@ -65,7 +66,9 @@ class BoundaryCurve:
         ``min_step`` of the last curve point, the segment probed there (point -+
         width * normal, whose ends showed ``labels``) and the curve's direction.
     collisions : int
+        Collisions run to trace the curve.
     seconds : float
+        Wall time of the tracing, seconds.
     """
 
     plane: tuple
@@ -80,6 +83,12 @@ class BoundaryCurve:
     seconds: float = 0.0
 
     def to_dict(self) -> dict:
+        """The fields as a JSON-ready dict (tuples as lists).
+
+        Returns
+        -------
+        dict
+        """
         return {"plane": list(self.plane), "below": self.below, "above": self.above,
                 "closed": self.closed, "ends": list(self.ends),
                 "corners": [[float(c[0][0]), float(c[0][1])] for c in self.corners],
@@ -229,6 +238,7 @@ def trace_curves(plane=("eta1", "eta2"), box=((0.0, 1.0), (0.0, 1.0)), fixed=Non
     plane : (str, str)
         x and y parameters (frictions: eta1, eta2, eta, gamma1, gamma2, gamma).
     box : ((x0, x1), (y0, y1))
+        Ranges of the x and y parameters, in their scaled units.
     fixed : dict, optional
         The other parameters (as :func:`find_boundaries`).
     tol : float
@@ -239,10 +249,18 @@ def trace_curves(plane=("eta1", "eta2"), box=((0.0, 1.0), (0.0, 1.0)), fixed=Non
         Largest and smallest continuation step, relative to the box's size.
     max_points : int
         Per direction of each curve.
+    t_max : float
+        Give up waiting for separation after this time (units of ``B``).
+    rtol : float, optional
+        Event-stepper tolerance (n != 2).
     executor : {'serial', 'dask'}
         Where the seed lines run; ``client`` an existing distributed.Client
         (default a LocalCluster of ``workers`` processes). The result does not
         depend on it.
+    client : distributed.Client, optional
+        An existing dask client (``executor='dask'``).
+    workers : int
+        Processes of the LocalCluster started when no ``client`` is given.
 
     Returns
     -------
@@ -348,7 +366,22 @@ def _run_tasks(fn, args, executor, client, workers):
 # ----------------------------------------------------------------------------
 def write_curves(curves, folder, stem: str = "boundaries") -> list:
     """``folder/<stem>_curves.csv`` (curve, x, y, nx, ny, below, above) and
-    ``folder/<stem>_curves.json`` (every :class:`BoundaryCurve` as a dict)."""
+    ``folder/<stem>_curves.json`` (every :class:`BoundaryCurve` as a dict).
+
+    Parameters
+    ----------
+    curves : list of BoundaryCurve
+        The traced curves.
+    folder : str or Path
+        Output folder (created).
+    stem : str
+        File name prefix.
+
+    Returns
+    -------
+    list of Path
+        The CSV and JSON written.
+    """
     from pathlib import Path
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -365,7 +398,28 @@ def write_curves(curves, folder, stem: str = "boundaries") -> list:
 
 def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str] = None):
     """The curves drawn over the outcome map (``m`` x ``m`` collisions, event
-    stepper) of the plane; corners marked. Returns the path written."""
+    stepper) of the plane; corners marked. Returns the path written.
+
+    Parameters
+    ----------
+    curves : list of BoundaryCurve
+        The traced curves (at least one; their ``plane`` names the axes).
+    path : str or Path
+        PNG written.
+    box : ((x0, x1), (y0, y1))
+        Ranges of the x and y parameters, scaled units.
+    fixed : dict, optional
+        The other parameters (as :func:`trace_curves`).
+    m : int
+        Points per axis of the outcome map drawn under the curves.
+    title : str, optional
+        Figure title (default names ``n``).
+
+    Returns
+    -------
+    str or Path
+        ``path``.
+    """
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -392,11 +446,11 @@ def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str
             ax.plot(*corner[0], "ro", ms=4)
     handles = [plt.Rectangle((0, 0), 1, 1, color=colours[i]) for i in range(len(OUTCOMES))]
     present = sorted(set(int(k) for k in np.unique(cm.outcome)) - {-1})
-    ax.legend([handles[i] for i in present], [OUTCOMES[i].name for i in present],
+    ax.legend([handles[i] for i in present], [OUTCOMES[i].name.replace("_", " ") for i in present],
               loc="upper right", fontsize=7)
-    ax.set_xlabel(xn)
-    ax.set_ylabel(yn)
-    ax.set_title(title or f"outcome boundaries, n = {v['n']:g}")
+    ax.set_xlabel(tex_name(xn))
+    ax.set_ylabel(tex_name(yn))
+    ax.set_title(title or f"outcome boundaries, $n = {v['n']:g}$")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

@@ -71,7 +71,13 @@ class CollisionMap:
     workers: int
 
     def outcomes(self) -> np.ndarray:
-        """The outcome codes as an object array of :class:`Outcome` (None where failed)."""
+        """The outcome codes as an object array of :class:`Outcome` (None where failed).
+
+        Returns
+        -------
+        ndarray of object
+            Same shape as ``outcome``.
+        """
         table = np.array(list(OUTCOMES) + [None], dtype=object)
         return table[self.outcome]
 

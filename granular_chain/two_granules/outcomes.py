@@ -49,7 +49,18 @@ _OUTCOME_OF_SIGNS = {signs: outcome for outcome, signs in SEPARATION_SIGNS.items
 
 
 def outcome_of_signs(sign1: int, sign2: int) -> Outcome:
-    """The outcome of a collision that separated with velocities of these signs."""
+    """The outcome of a collision that separated with velocities of these signs.
+
+    Parameters
+    ----------
+    sign1, sign2 : int
+        Signs (-1, 0, 1) of the velocities of granules 1 and 2 at separation.
+
+    Returns
+    -------
+    Outcome
+        ``stuck`` for a pair no separated outcome has.
+    """
     return _OUTCOME_OF_SIGNS.get((sign1, sign2), Outcome.stuck)
 
 
@@ -73,7 +84,22 @@ def outcome_code(status, v1, v2, rest_tol):
     """Index into :data:`OUTCOMES` of a run that ended with ``status`` (a
     :class:`~granular_chain.codes.Status` value) and velocities ``v1``, ``v2``
     (scaled); -1 for a failed run. A granule is at rest when
-    ``|v| <= rest_tol * max(|v1|, |v2|)``."""
+    ``|v| <= rest_tol * max(|v1|, |v2|)``.
+
+    Parameters
+    ----------
+    status : int
+        :class:`~granular_chain.codes.Status` value of the run.
+    v1, v2 : float
+        Final velocities, units of ``v0``.
+    rest_tol : float
+        A granule is at rest when ``|v| <= rest_tol * max(|v1|, |v2|)`` (dimensionless).
+
+    Returns
+    -------
+    int
+        Index into :data:`OUTCOMES`, -1 for a failed run.
+    """
     scale = max(abs(v1), abs(v2))
     r1 = 0.0 if abs(v1) <= rest_tol * scale else v1
     r2 = 0.0 if abs(v2) <= rest_tol * scale else v2
@@ -88,6 +114,18 @@ def outcome_code(status, v1, v2, rest_tol):
 
 @numba.njit(cache=True)
 def outcome_codes(status, velocities, rest_tol, out):
-    """:func:`outcome_code` of M runs: ``status`` (M,), ``velocities`` (M, 2); into ``out`` (M,)."""
+    """:func:`outcome_code` of M runs: ``status`` (M,), ``velocities`` (M, 2); into ``out`` (M,).
+
+    Parameters
+    ----------
+    status : ndarray of int, shape (M,)
+        Status values of the runs.
+    velocities : ndarray, shape (M, 2)
+        Final velocities, units of ``v0``.
+    rest_tol : float
+        A granule is at rest when ``|v| <= rest_tol * max(|v1|, |v2|)`` (dimensionless).
+    out : ndarray of int8, shape (M,)
+        Filled with the outcome codes.
+    """
     for p in range(status.size):
         out[p] = outcome_code(status[p], velocities[p, 0], velocities[p, 1], rest_tol)

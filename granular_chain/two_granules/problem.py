@@ -47,7 +47,9 @@ class Collision:
     t_separation : float
         Time of the first loss of contact, ``math.inf`` if it never happens.
     outcome : Outcome
+        How the collision ended.
     message : str
+        What happened, in words (the outcome, or why the run failed).
     result : Result
         The engine's full result (trajectory, ledger, events).
     """
@@ -76,6 +78,30 @@ def two_granule_scene(n: float = 2.0, eta=(0.0, 0.0), gamma=(0.0, 0.0), *,
     Only displacements enter the scaled problem; the radius 1 keeps the overlap
     (which reaches 1 when granule 2 is held fast and granule 1 stops) below the
     sum of the radii, where the engine would refuse the scene as unphysical.
+
+    Parameters
+    ----------
+    n : float
+        Potential exponent (2 linear, 5/2 Hertz).
+    eta : (float, float)
+        Kinetic friction forces (eta1, eta2), scaled (units of ``m v0^2/A``).
+    gamma : (float, float)
+        Hydrodynamic friction coefficients (gamma1, gamma2), scaled (units of ``m/B``).
+    stepper : {'verlet', 'event'}
+        The stepper of the scene.
+    dt : float, optional
+        Verlet step, units of ``B`` (default 1/200 of the contact period).
+    eta_static : (float, float), optional
+        Static friction thresholds, scaled like ``eta`` (default equal to eta).
+    t_max : float
+        End time of the run, units of ``B``.
+    rtol, atol : float, optional
+        Event-stepper tolerances (relative, and absolute in scene units).
+
+    Returns
+    -------
+    dict
+        A scene mapping, as read from a scene file.
     """
     # Stop at separation (the collision ends) or when both granules are at rest:
     # with Coulomb friction a collision that sticks while compressed is a fixed
@@ -117,6 +143,7 @@ def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verl
     gamma : (float, float)
         Hydrodynamic friction coefficients (gamma1, gamma2) in scaled units.
     stepper : {'verlet', 'event'}
+        Which stepper runs the collision (event: exact for n = 2).
     dt : float, optional
         Verlet step (default 1/200 of the contact period).
     eta_static : (float, float), optional
@@ -238,6 +265,18 @@ def classify(result: Result, rest_tol: float = 0.0) -> Collision:
 
     A granule is at rest when ``|v| <= rest_tol * max(|v1|, |v2|)``; the
     velocities reported are the engine's, unrounded.
+
+    Parameters
+    ----------
+    result : Result
+        The engine's result of :func:`two_granule_scene`.
+    rest_tol : float
+        A granule is at rest when ``|v| <= rest_tol * max(|v1|, |v2|)`` (dimensionless).
+
+    Returns
+    -------
+    Collision
+        Velocities, energy ratio, separation time and outcome.
     """
     v1, v2 = (float(a) for a in result.v_final)
     e = result.energy
@@ -257,5 +296,18 @@ def classify(result: Result, rest_tol: float = 0.0) -> Collision:
 
 
 def energy_ratio(kinetic, potential, initial):
-    """E/E0 at the end: (kinetic + elastic) over the initial energy (arrays or floats)."""
+    """E/E0 at the end: (kinetic + elastic) over the initial energy (arrays or floats).
+
+    Parameters
+    ----------
+    kinetic, potential : float or ndarray
+        Final kinetic and elastic energies (scene units).
+    initial : float or ndarray
+        Initial energy (same units).
+
+    Returns
+    -------
+    float or ndarray
+        E/E0, dimensionless.
+    """
     return (kinetic + potential) / initial

@@ -78,18 +78,44 @@ def _save(fig, path: Path) -> Path:
 
 def _units(scene) -> tuple[str, str, str]:
     if scene is not None and scene.units == "physical":
-        return "t [s]", "v [m/s]", "energy [J]"
-    return "t (scaled)", "v (scaled)", "energy (scaled)"
+        return "$t$ [s]", "$v$ [m/s]", "energy [J]"
+    return "$t$ (scaled)", "$v$ (scaled)", "energy (scaled)"
 
 
 def default_granules(count: int) -> list[int]:
-    """First, quarter, middle, three-quarter and last granule (without repeats)."""
+    """First, quarter, middle, three-quarter and last granule (without repeats).
+
+    Parameters
+    ----------
+    count : int
+        Number of granules in the chain.
+
+    Returns
+    -------
+    list of int
+        Sorted indices.
+    """
     picks = [0, count // 4, count // 2, (3 * count) // 4, count - 1]
     return sorted(set(i for i in picks if 0 <= i < count))
 
 
 def plot_spacetime(result, path, scene=None) -> Path:
-    """Space-time diagram of the velocity: index against time, colour = v."""
+    """Space-time diagram of the velocity: index against time, colour = v.
+
+    Parameters
+    ----------
+    result : Result
+        The run (frames of ``t``, ``x``, ``v`` and the energy ledger).
+    path : str or Path
+        PNG file written (its folder must exist).
+    scene : Scene, optional
+        The run's scene: physical or scaled units on the axes, its name in the title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     plt = _pyplot()
     from matplotlib.colors import TwoSlopeNorm
 
@@ -111,11 +137,12 @@ def plot_spacetime(result, path, scene=None) -> Path:
     mesh = ax.pcolormesh(cells.pop("X"), cells.pop("Y"), vv, cmap="RdBu_r",
                          norm=TwoSlopeNorm(0.0, -vmax, vmax), rasterized=True, **cells)
     fig.colorbar(mesh, ax=ax, label=f"velocity {vlab}")
-    ax.set_xlabel("granule index i")
+    ax.set_xlabel("granule index $i$")
     ax.set_ylabel(tlab)
-    name = scene.name if scene is not None else "run"
-    shown = "" if bt == bn == 1 else f", cells: peak of {bt} x {bn}"
-    ax.set_title(f"{name}: velocity of every granule (N = {N}, {F} frames{shown})",
+    # a "$" of the name is literal, not the start of mathtext
+    name = scene.name.replace("$", r"\$") if scene is not None else "run"
+    shown = "" if bt == bn == 1 else f", cells: peak of ${bt} \\times {bn}$"
+    ax.set_title(f"{name}: velocity of every granule ($N = {N}$, {F} frames{shown})",
                  fontsize="medium")
     _save(fig, Path(path))
     plt.close(fig)
@@ -140,7 +167,22 @@ def peak_blocks(v: np.ndarray, bt: int, bn: int) -> np.ndarray:
 
 
 def plot_energy(result, path, scene=None) -> Path:
-    """Energy ledger against time and the relative balance error below it."""
+    """Energy ledger against time and the relative balance error below it.
+
+    Parameters
+    ----------
+    result : Result
+        The run (frames of ``t``, ``x``, ``v`` and the energy ledger).
+    path : str or Path
+        PNG file written (its folder must exist).
+    scene : Scene, optional
+        The run's scene: physical or scaled units on the axes, its name in the title.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     plt = _pyplot()
     led, t = result.energy, result.t
     tlab, _, elab = _units(scene)
@@ -171,7 +213,29 @@ def plot_energy(result, path, scene=None) -> Path:
 
 
 def plot_velocities(result, path, scene=None, granules: Optional[Sequence[int]] = None) -> Path:
-    """Velocity against time of the chosen granules."""
+    """Velocity against time of the chosen granules.
+
+    Parameters
+    ----------
+    result : Result
+        The run (frames of ``t``, ``x``, ``v`` and the energy ledger).
+    path : str or Path
+        PNG file written (its folder must exist).
+    scene : Scene, optional
+        The run's scene: physical or scaled units on the axes, its name in the title.
+    granules : sequence of int, optional
+        Granule indices drawn (default :func:`default_granules`).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        An index outside the chain.
+    """
     plt = _pyplot()
     N = result.v.shape[1]
     granules = default_granules(N) if granules is None else list(granules)
@@ -206,8 +270,21 @@ def render_frame(result, path, scene, time: Optional[float] = None,
 
     Parameters
     ----------
+    result : Result
+        The run (frames of ``t``, ``x``, ``v`` and the energy ledger).
+    path : str or Path
+        PNG file written (its folder must exist).
+    scene : Scene
+        The run's scene (radii and contact laws of the granules drawn).
     time : float, optional
         Render the frame closest to this time (default: the middle of the run).
+    window_size : (int, int)
+        Image width and height, pixels.
+
+    Returns
+    -------
+    Path
+        ``path``.
 
     Raises
     ------
@@ -303,6 +380,30 @@ def write_plots(result, folder, scene=None, *, granules: Optional[Sequence[int]]
 
     The rendered frame needs the scene (radii, contact laws) and a working off-screen
     OpenGL; when either is missing it is skipped with a one-line message on ``log``.
+
+    Parameters
+    ----------
+    result : Result
+        The run (frames of ``t``, ``x``, ``v`` and the energy ledger).
+    folder : str or Path
+        Run folder; the PNGs go to ``folder/subdir``.
+    scene : Scene, optional
+        The run's scene: physical or scaled units on the axes, its name in the title.
+    granules : sequence of int, optional
+        Granules of ``velocities.png`` (default :func:`default_granules`).
+    frame_time : float, optional
+        Time of the rendered frame, in the run's time unit (default: mid-run).
+    render : bool
+        Render ``frame.png`` with pyvista.
+    subdir : str
+        Subfolder of ``folder`` ('' writes into ``folder`` itself).
+    log : file, optional
+        Where skip messages go (default ``sys.stderr``).
+
+    Returns
+    -------
+    list of Path
+        The PNGs written.
     """
     log = sys.stderr if log is None else log
     out = Path(folder) / subdir if subdir else Path(folder)

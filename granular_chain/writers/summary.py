@@ -14,6 +14,11 @@ def finite_json(data) -> tuple:
     energy of a scene at extreme scales) is written as null and named in the
     reasons ({"energy.kinetic": "inf: overflowed double precision"}).
 
+    Parameters
+    ----------
+    data : dict, list or scalar
+        JSON-ready data, possibly with NaN or Inf floats.
+
     Returns
     -------
     (clean, reasons) : (same structure as data, dict)
@@ -38,6 +43,20 @@ def write_summary(result, folder: Path, scene=None) -> Path:
     """Write ``folder/summary.json`` from a Result (and the scene for reference).
 
     Non-finite numbers are written as null, with the reason under ``"non_finite"``.
+
+    Parameters
+    ----------
+    result : Result
+        The finished run.
+    folder : str or Path
+        Run folder written into.
+    scene : Scene, optional
+        The run's scene (recorded for reference).
+
+    Returns
+    -------
+    Path
+        ``folder/summary.json``.
     """
     data = result.summary()
     if scene is not None:

@@ -42,7 +42,20 @@ ENERGY_COLUMNS = ("t", "kinetic", "potential", "coulomb", "viscous", *TERMS_ADDE
 
 
 def write_energy_csv(result, folder) -> Path:
-    """Write ``folder/energy.csv`` from ``result.t`` and ``result.energy``."""
+    """Write ``folder/energy.csv`` from ``result.t`` and ``result.energy``.
+
+    Parameters
+    ----------
+    result : Result
+        The finished run.
+    folder : str or Path
+        Run folder written into.
+
+    Returns
+    -------
+    Path
+        ``folder/energy.csv``.
+    """
     led = result.energy
     table = np.column_stack([result.t, led.kinetic, led.potential, led.coulomb, led.viscous,
                              *(getattr(led, name) for name in TERMS_ADDED), led.balance])
@@ -71,6 +84,13 @@ class EnergyTable:
     The rows are those :func:`write_energy_csv` writes from a finished Result,
     to the last bit. ``resume_rows``: continue a file after its first rows (a
     run restarted from a checkpoint).
+
+    Parameters
+    ----------
+    folder : str or Path
+        Run folder; the file is ``folder/energy.csv``.
+    resume_rows : int, optional
+        Rows kept from an existing file (a restart); None starts a new file.
     """
 
     def __init__(self, folder, resume_rows: Optional[int] = None):
@@ -83,20 +103,48 @@ class EnergyTable:
         self._fh.write(",".join(ENERGY_COLUMNS) + "\n")
 
     def flush(self) -> None:
+        """Push the rows written so far to disk (before a checkpoint)."""
         self._fh.flush()
 
     def write_frame(self, frame) -> None:
+        """Write the row of one frame.
+
+        Parameters
+        ----------
+        frame : Frame
+            One output frame (time, positions, velocities, ledger; scene units).
+        """
         values = (frame.t, frame.kinetic, frame.potential, frame.coulomb, frame.viscous,
                   *(getattr(frame, name) for name in TERMS_ADDED), frame.balance)
         self._fh.write(",".join("%.17g" % v for v in values) + "\n")
 
     def close(self, result=None) -> None:
+        """Close the file (its rows are flushed).
+
+        Parameters
+        ----------
+        result : Result, optional
+            The finished run (unused: every row came with the frames).
+        """
         if not self._fh.closed:
             self._fh.close()
 
 
 def write_events_csv(result, folder) -> Optional[Path]:
-    """Write ``folder/events.csv`` if ``result.events`` is non-empty; return its path or None."""
+    """Write ``folder/events.csv`` if ``result.events`` is non-empty; return its path or None.
+
+    Parameters
+    ----------
+    result : Result
+        The finished run.
+    folder : str or Path
+        Run folder written into.
+
+    Returns
+    -------
+    Path or None
+        ``folder/events.csv``, or None when there are no events.
+    """
     if not result.events:
         return None
     path = Path(folder) / "events.csv"
@@ -109,7 +157,22 @@ def write_events_csv(result, folder) -> Optional[Path]:
 
 
 def write_tables(result, folder, scene=None) -> list[Path]:
-    """Write energy.csv and (when there are events) events.csv; return the paths written."""
+    """Write energy.csv and (when there are events) events.csv; return the paths written.
+
+    Parameters
+    ----------
+    result : Result
+        The finished run.
+    folder : str or Path
+        Run folder written into.
+    scene : Scene, optional
+        The run's scene (recorded for reference).
+
+    Returns
+    -------
+    list of Path
+        The CSV files written.
+    """
     paths = [write_energy_csv(result, folder)]
     ev = write_events_csv(result, folder)
     if ev is not None:

@@ -26,7 +26,20 @@ _LINES_BY_DEFAULT = 20
 
 
 def thermo_every(steps: int, every: Optional[int]) -> int:
-    """Steps between thermo lines: ``every`` when given, else about 20 lines a run."""
+    """Steps between thermo lines: ``every`` when given, else about 20 lines a run.
+
+    Parameters
+    ----------
+    steps : int
+        Verlet steps of the run.
+    every : int, optional
+        Steps between lines asked for.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
     if every is not None:
         return int(every)
     return max(1, math.ceil(steps / _LINES_BY_DEFAULT))
@@ -49,6 +62,8 @@ class ThermoLog:
     dt : float, optional
         Simulated time between lines for frames handed on as they come (event
         stepper): a frame is written when at least ``dt`` after the last one.
+    resume_lines : int, optional
+        Lines kept from an existing ``thermo.csv`` (a restart); None starts a new file.
     """
 
     def __init__(self, model, every: int, path: Optional[Path] = None, echo: bool = False,
@@ -74,7 +89,18 @@ class ThermoLog:
         self._echo = _Echo() if echo else None
 
     def row(self, frame) -> tuple:
-        """The thermo values of one frame, in the order of :data:`COLUMNS`."""
+        """The thermo values of one frame, in the order of :data:`COLUMNS`.
+
+        Parameters
+        ----------
+        frame : Frame
+            One output frame (time, positions, velocities, ledger; scene units).
+
+        Returns
+        -------
+        tuple
+            One value per column of :data:`COLUMNS`, in scene units.
+        """
         x = frame.x
         closed = int(np.count_nonzero(self._contact_reach - np.diff(x) > 0.0))
         m = self._model
@@ -89,6 +115,13 @@ class ThermoLog:
                 closed, sliding)
 
     def write_frame(self, frame) -> None:
+        """Write (and maybe print) the line of one frame, on the log's cadence.
+
+        Parameters
+        ----------
+        frame : Frame
+            One output frame (time, positions, velocities, ledger; scene units).
+        """
         if self.dt is not None and frame.t < self._last_t + self.dt:
             return
         self._last_t = frame.t
@@ -102,6 +135,13 @@ class ThermoLog:
             self._echo.line(row)
 
     def close(self, result=None) -> None:
+        """Close ``thermo.csv``.
+
+        Parameters
+        ----------
+        result : Result, optional
+            The finished run (unused: every row came with the frames).
+        """
         if self._fh is not None:
             self._fh.close()
             self._fh = None

@@ -78,7 +78,18 @@ class WallContact(NamedTuple):
 
 
 def wall_contacts(model) -> tuple:
-    """``(left, right)``: the :class:`WallContact` of each wall of ``model``, or None."""
+    """``(left, right)``: the :class:`WallContact` of each wall of ``model``, or None.
+
+    Parameters
+    ----------
+    model : Model
+        The chain constants of the run.
+
+    Returns
+    -------
+    (WallContact or None, WallContact or None)
+        Left and right wall.
+    """
     walls = model.walls
     left = right = None
     if model.features.left_wall:
@@ -166,6 +177,18 @@ def friction_state(v, eta_static):
     The Verlet kicks set a stopped granule's velocity to exactly 0.0 and keep it
     there while the net force stays below the static threshold, so ``v == 0`` is the
     stuck state itself, not a tolerance.
+
+    Parameters
+    ----------
+    v : ndarray, shape (N,)
+        Velocities (scene units).
+    eta_static : ndarray, shape (N,)
+        Static friction thresholds (scene force units; 0: no Coulomb friction).
+
+    Returns
+    -------
+    ndarray of int8, shape (N,)
+        The state of each granule.
     """
     state = np.where(np.asarray(v) == 0.0, 1, 0).astype(np.int8)
     state[np.asarray(eta_static) <= 0.0] = -1
@@ -185,6 +208,7 @@ class VTKSeriesWriter:
     folder : path
         Output folder; frames go to ``folder/vtk/``, the index to ``folder/run.pvd``.
     radius, mass : ndarray, shape (N,)
+        Radii and masses of the granules (scene units).
     k, n : ndarray, shape (N-1,)
         Contact force coefficients and exponents (:attr:`granular_chain.Result.model`).
     eta_static : ndarray, shape (N,)
@@ -257,7 +281,20 @@ class VTKSeriesWriter:
         return self._mesh
 
     def write_frame(self, t: float, x, v, f) -> Path:
-        """Write one frame at time ``t`` with positions ``x``, velocities ``v``, net forces ``f``."""
+        """Write one frame at time ``t`` with positions ``x``, velocities ``v``, net forces ``f``.
+
+        Parameters
+        ----------
+        t : float
+            Time (scene units).
+        x, v, f : ndarray, shape (N,)
+            Positions, velocities and net forces (scene units).
+
+        Returns
+        -------
+        Path
+            The ``.vtp`` written.
+        """
         mesh = self._mesh
         self._points[:, 0] = x
         self._v[:] = v
@@ -282,7 +319,13 @@ class VTKSeriesWriter:
         return self.folder / name
 
     def write_index(self) -> Path:
-        """Write ``run.pvd`` (by hand: no library writes ParaView's collection format)."""
+        """Write ``run.pvd`` (by hand: no library writes ParaView's collection format).
+
+        Returns
+        -------
+        Path
+            ``folder/run.pvd``.
+        """
         lines = ['<?xml version="1.0"?>',
                  '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
                  "  <Collection>"]
@@ -313,18 +356,25 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
     Parameters
     ----------
     result : Result
+        The finished run.
     folder : path
         Output folder (``run.pvd`` and ``vtk/`` are created in it).
     scene : Scene
         The run's scene: only for a Result without its chain constants
         (:func:`granular_chain.readback.run_model`).
     compression : {"zlib", "lz4", "lzma", None}
+        Compression of the binary appended data.
     progress : bool
         Show a bar of frames written (tqdm).
     should_stop : callable, optional
         Asked before each frame; when it returns true the series ends there
         (with a valid index of the frames written), so a stop request is
         honoured within one frame.
+
+    Returns
+    -------
+    Path
+        ``folder/run.pvd``.
     """
     from ..readback import run_model
 
@@ -356,6 +406,10 @@ class VTKFrames:
         Output folder (``run.pvd`` and ``vtk/``).
     model : Model
         Radii, masses, contact constants and static friction of the chain.
+    compression : {"zlib", "lz4", "lzma", None}
+        Compression of the binary appended data.
+    resume_frames : int, optional
+        Frames kept from an existing series (a restart); None starts a new one.
     """
 
     def __init__(self, folder, model, *, compression: Optional[str] = "zlib",
@@ -384,9 +438,17 @@ class VTKFrames:
         self.series.write_index()
 
     def flush(self) -> None:
+        """Rewrite the ``.pvd`` index so it lists every frame written (before a checkpoint)."""
         self.series.write_index()
 
     def write_frame(self, frame) -> None:
+        """Write one frame as a ``.vtp`` (and the index on its cadence).
+
+        Parameters
+        ----------
+        frame : Frame
+            One output frame (time, positions, velocities, ledger; scene units).
+        """
         self.series.write_frame(frame.t, frame.x, frame.v, frame.f)
         now = time.monotonic()
         if len(self.series._entries) <= 100 or now - self._indexed >= 1.0:
@@ -394,4 +456,11 @@ class VTKFrames:
             self._indexed = now
 
     def close(self, result=None) -> None:
+        """Write the final index.
+
+        Parameters
+        ----------
+        result : Result, optional
+            The finished run (unused: every row came with the frames).
+        """
         self.series.write_index()
