@@ -25,14 +25,15 @@ from ...errors import SimulationError
 from ...forces import net_forces
 from ...frames import Frame, FrameLog
 from ...interrupts import CHUNK_SECONDS, stop_signals
+from ...laws.damping import DAMPING_LINEAR
 from ...laws.friction import drift_tables
 from ...model import Model
 from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Result, ledger_balance
 from ...units import scaled_parameters
 from .event_log import EventLog, new_event_log
 from .forced import forced_chunk
-from .forced_setup import (FORCED_STATE_ARRAYS, body_work, energies_at, forced_dt_limit,
-                           forced_records, is_forced, wall_positions)
+from .forced_setup import (FORCED_STATE_ARRAYS, body_work, dashpot_rate, energies_at,
+                           forced_dt_limit, forced_records, is_forced, wall_positions)
 from .kernel import chunk_kernel, synchronise
 from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
                       Features, State, Timestep)
@@ -63,13 +64,20 @@ def default_dt(model: Model, t_end: float = math.inf) -> float:
 
 
 def check_dt(model: Model, dt: float) -> None:
-    """Refuse a Verlet step the stiffest contact cannot take (SimulationError names run.dt)."""
+    """Refuse a Verlet step the stiffest contact, or the strongest linear dashpot,
+    cannot take (SimulationError names run.dt)."""
     T = model.shortest_period()
     if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
         raise SimulationError(
             f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
             f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
             f"use dt <= {T / 50:.3g} for accuracy")
+    rate = dashpot_rate(model) if is_forced(model) else 0.0
+    if model.features.damping == DAMPING_LINEAR and dt * rate >= 2.0:
+        raise SimulationError(
+            f"run.dt: {dt:g} is too large for the strongest dashpot (relaxation time "
+            f"m_eff/c = {1 / rate:.4g}): the step is unstable from 2 m_eff/c = {2 / rate:.4g} "
+            f"on; use dt <= {1 / (40 * rate):.3g} for accuracy")
 
 
 def _drift_coefficients(model: Model, dt: float):
