@@ -197,14 +197,17 @@ def sides(x, c, left, right):
     return a, b
 
 
+# The helpers bind every array of a record to a local before their loops: an
+# array read through a record inside a loop costs a reference count (an atomic
+# increment and decrement), about 70 ns a granule.
+
 @numba.njit(inline="always", cache=True)
-def kick(features, chain, i, v, F, h):
-    """Kick of granule i from v under the frozen force F for h: (v_new, w_coulomb, code)."""
-    if features.coulomb:
-        v1, w1, w2, code = coulomb_kick(v, F, chain.eta[i], chain.eta_static[i],
-                                        chain.inv_mass[i], h)
+def kick(coulomb, v, F, eta, eta_s, inv_m, h):
+    """Kick from v under the frozen force F for h: (v_new, w_coulomb, code)."""
+    if coulomb:
+        v1, w1, w2, code = coulomb_kick(v, F, eta, eta_s, inv_m, h)
         return v1, w1, code
-    v1, w1, w2, code = free_kick(v, F, chain.inv_mass[i], h)
+    v1, w1, w2, code = free_kick(v, F, inv_m, h)
     return v1, 0.0, 0
 
 
@@ -213,37 +216,45 @@ def opening_half(features, chain, timestep, state, fstate, predict, counts):
     """Opening half kick and drift of every granule; with ``predict``, the velocity
     a second half kick under the same force would give (into v_pred). Returns the
     (Coulomb, viscous) work."""
-    u, v, f = state.u, state.v, state.f
+    u, v, f, v_pred = state.u, state.v, state.f, fstate.v_pred
+    eta, eta_s, inv_m, mass = chain.eta, chain.eta_static, chain.inv_mass, chain.mass
+    E, P1 = timestep.E, timestep.P1
     dt = timestep.dt
     h = 0.5 * dt
     wc = 0.0
     wv = 0.0
+    n_stop = 0
+    n_slip = 0
     for i in range(u.size):
-        v1, w1, code = kick(features, chain, i, v[i], f[i], h)
+        v1, w1, code = kick(features.coulomb, v[i], f[i], eta[i], eta_s[i], inv_m[i], h)
         wc += w1
-        counts[STOP] += code & 1
-        counts[SLIP] += (code >> 1) & 1
+        n_stop += code & 1
+        n_slip += (code >> 1) & 1
         if features.viscous:
-            du, v1, w2 = viscous_drift(v1, chain.mass[i], timestep.E[i], timestep.P1[i])
+            du, v1, w2 = viscous_drift(v1, mass[i], E[i], P1[i])
             wv += w2
         else:
             du = dt * v1
         u[i] += du
         v[i] = v1
         if predict:
-            fstate.v_pred[i] = kick(features, chain, i, v1, f[i], h)[0]
+            v_pred[i] = kick(features.coulomb, v1, f[i], eta[i], eta_s[i], inv_m[i], h)[0]
+    counts[STOP] += n_stop
+    counts[SLIP] += n_slip
     return wc, wv
 
 
 @numba.njit(inline="always", cache=True)
-def closing_force(features, forcing, fstate, c, d, S, phi, h, w_pred):
-    """Force of contact c (overlap d, spring S, primitive phi at the step's end) in
-    the closing half kick: the rest of its impulse over the step (module docstring)."""
-    S0, D0, F0 = fstate.spring[c], fstate.dashpot[c], fstate.force[c]
-    G = S + ((phi - fstate.phi[c]) / h - D0)
-    if features.damping != DAMPING_NONE and not forcing.tensile:
-        raw = S + dashpot_force(features.law, features.damping, d, w_pred, forcing.k[c],
-                                forcing.n[c], forcing.coefficient[c])
+def closing_force(features, tensile, old, d, S, phi, h, rate, params):
+    """Force of a contact in the closing half kick, the rest of its impulse over the
+    step (module docstring): ``old`` = (spring, dashpot, primitive) at the step's
+    start, (d, S, phi) at its end, ``rate`` the predicted overlap rate there,
+    ``params`` = (k, n, coefficient)."""
+    S0, D0, phi0 = old
+    G = S + ((phi - phi0) / h - D0)
+    if features.damping != DAMPING_NONE and not tensile:
+        raw = S + dashpot_force(features.law, features.damping, d, rate, params[0], params[1],
+                                params[2])
         if S0 + D0 < 0.0 or raw < 0.0:  # clipped at an end: trapezoid of the clipped force
             G = max(raw, 0.0)
     return G
@@ -257,42 +268,51 @@ def contacts_after_drift(features, chain, timestep, state, forcing, fstate, time
     ``times`` = (t0, t1). Returns n_hard, the contacts whose spring force reached
     chain.fcap."""
     u, N, law = state.u, state.u.size, features.law
+    d0, k, n, coef = forcing.d0, forcing.k, forcing.n, forcing.coefficient
+    delta, spring, dashpot, phis = fstate.delta, fstate.spring, fstate.dashpot, fstate.phi
+    force, closing, v_pred = fstate.force, fstate.closing, fstate.v_pred
+    tensile, fcap = forcing.tensile, chain.fcap
     dt = timestep.dt
     h = 0.5 * dt
     s0 = wall_positions(forcing, times[0])
     s1 = wall_positions(forcing, times[1])
     sp = wall_speeds(forcing, times[1])
-    lo, hi = forcing.ends[0], forcing.ends[1]
-    fstate.closing[0] = 0.0
-    fstate.closing[N] = 0.0
+    closing[0] = 0.0
+    closing[N] = 0.0
     diss = 0.0
+    wall = 0.0
     n_hard = 0
-    for c in range(lo, hi + 1):
+    n_close = 0
+    n_open = 0
+    for c in range(forcing.ends[0], forcing.ends[1] + 1):
         a, b = sides(u, c, s1[0], s1[1])
-        d = forcing.d0[c] + a - b
-        S = contact_force(law, d, forcing.k[c], forcing.n[c])
-        phi = dashpot_primitive(law, features.damping, d, forcing.k[c], forcing.n[c],
-                                forcing.coefficient[c])
-        pa, pb = sides(fstate.v_pred, c, sp[0], sp[1])
-        G = closing_force(features, forcing, fstate, c, d, S, phi, h, pa - pb)
-        J = h * (fstate.force[c] + G)
+        d = d0[c] + a - b
+        S = contact_force(law, d, k[c], n[c])
+        phi = dashpot_primitive(law, features.damping, d, k[c], n[c], coef[c])
+        pa, pb = sides(v_pred, c, sp[0], sp[1])
+        G = closing_force(features, tensile, (spring[c], dashpot[c], phis[c]), d, S, phi, h,
+                          pa - pb, (k[c], n[c], coef[c]))
+        J = h * (force[c] + G)
         if features.damping != DAMPING_NONE:
-            diss += h * ((fstate.force[c] - fstate.spring[c]) + (G - S)) * (d - fstate.delta[c]) / dt
+            diss += h * ((force[c] - spring[c]) + (G - S)) * (d - delta[c]) / dt
         if 0 < c < N:
-            n_hard += 1 if S >= chain.fcap else 0
-            was = 1 if fstate.delta[c] > 0.0 else 0
+            n_hard += 1 if S >= fcap else 0
+            was = 1 if delta[c] > 0.0 else 0
             now = 1 if d > 0.0 else 0
-            counts[CLOSE] += now & (1 - was)
-            counts[OPEN] += was & (1 - now)
+            n_close += now & (1 - was)
+            n_open += was & (1 - now)
         elif c == 0:
-            fstate.work[1] += J * (s1[0] - s0[0]) / dt
+            wall += J * (s1[0] - s0[0]) / dt
         else:
-            fstate.work[1] -= J * (s1[1] - s0[1]) / dt
-        fstate.delta[c] = d
-        fstate.spring[c] = S
-        fstate.phi[c] = phi
-        fstate.closing[c] = G
+            wall -= J * (s1[1] - s0[1]) / dt
+        delta[c] = d
+        spring[c] = S
+        phis[c] = phi
+        closing[c] = G
+    counts[CLOSE] += n_close
+    counts[OPEN] += n_open
     fstate.work[0] += diss
+    fstate.work[1] += wall
     return n_hard
 
 
@@ -300,16 +320,21 @@ def contacts_after_drift(features, chain, timestep, state, forcing, fstate, time
 def closing_half(features, chain, timestep, state, forcing, fstate, counts):
     """Closing half kick of every granule under its contacts' closing forces and its
     body force; the Coulomb work."""
-    v = state.v
+    v, G, body = state.v, fstate.closing, forcing.body
+    eta, eta_s, inv_m = chain.eta, chain.eta_static, chain.inv_mass
     h = 0.5 * timestep.dt
-    G = fstate.closing
     wc = 0.0
+    n_stop = 0
+    n_slip = 0
     for i in range(v.size):
-        v1, w1, code = kick(features, chain, i, v[i], G[i] - G[i + 1] + forcing.body[i], h)
+        v1, w1, code = kick(features.coulomb, v[i], G[i] - G[i + 1] + body[i], eta[i], eta_s[i],
+                            inv_m[i], h)
         wc += w1
-        counts[STOP] += code & 1
-        counts[SLIP] += (code >> 1) & 1
+        n_stop += code & 1
+        n_slip += (code >> 1) & 1
         v[i] = v1
+    counts[STOP] += n_stop
+    counts[SLIP] += n_slip
     return wc
 
 
@@ -318,34 +343,38 @@ def end_forces(features, state, forcing, fstate, t):
     """Dashpot and total force of every contact with the synchronised velocities at
     time t (overlaps as stored), and the net force f on every granule."""
     v, f, N = state.v, state.f, state.v.size
+    k, n, coef, body, tensile = forcing.k, forcing.n, forcing.coefficient, forcing.body, \
+        forcing.tensile
+    delta, dashpot, force = fstate.delta, fstate.dashpot, fstate.force
+    law, damping = features.law, features.damping
     sp = wall_speeds(forcing, t)
     for c in range(forcing.ends[0], forcing.ends[1] + 1):
         a, b = sides(v, c, sp[0], sp[1])
-        d, k, n, cc = fstate.delta[c], forcing.k[c], forcing.n[c], forcing.coefficient[c]
-        fstate.dashpot[c] = dashpot_force(features.law, features.damping, d, a - b, k, n, cc)
-        fstate.force[c] = damped_contact_force(features.law, features.damping, forcing.tensile,
-                                               d, a - b, k, n, cc)
+        dashpot[c] = dashpot_force(law, damping, delta[c], a - b, k[c], n[c], coef[c])
+        force[c] = damped_contact_force(law, damping, tensile, delta[c], a - b, k[c], n[c],
+                                        coef[c])
     for i in range(N):
-        f[i] = fstate.force[i] - fstate.force[i + 1] + forcing.body[i]
+        f[i] = force[i] - force[i + 1] + body[i]
 
 
 @numba.njit(inline="always", cache=True)
 def at_rest(features, chain, timestep, state, forcing, fstate):
     """1 if every granule is at rest after the step (module docstring, Rest)."""
-    u, v, f, dt = state.u, state.v, state.f, timestep.dt
+    u, v, f, dt, eta_s = state.u, state.v, state.f, timestep.dt, chain.eta_static
+    delta, spring, n, body = fstate.delta, fstate.spring, forcing.n, forcing.body
     for i in range(u.size):
-        if features.coulomb and v[i] == 0.0 and abs(f[i]) <= chain.eta_static[i]:
+        if features.coulomb and v[i] == 0.0 and abs(f[i]) <= eta_s[i]:
             continue
         scale = abs(u[i])
         stiffness = 0.0  # d(force)/d(delta) of the closed contacts: force per displacement
         for c in (i, i + 1):
-            if fstate.delta[c] > 0.0:
-                scale += fstate.delta[c]
-                stiffness += (forcing.n[c] - 1.0) * fstate.spring[c] / fstate.delta[c]
+            if delta[c] > 0.0:
+                scale += delta[c]
+                stiffness += (n[c] - 1.0) * spring[c] / delta[c]
         tol = REST_ULPS * _EPS * scale
         # the springs' and body force's balance: the dashpots' share of f is the
         # residual velocities' (checked on their own), not a displacement
-        static = fstate.spring[i] - fstate.spring[i + 1] + forcing.body[i]
+        static = spring[i] - spring[i + 1] + body[i]
         if abs(v[i]) * dt > tol or abs(static) > stiffness * tol:
             return 0
     return 1
@@ -355,9 +384,10 @@ def at_rest(features, chain, timestep, state, forcing, fstate):
 def overlap_reached(chain, forcing, fstate, n_hard):
     """Whether some overlap reached olim (the centres met); contacts between granules
     only when some spring force reached fcap (n_hard > 0), the walls always."""
-    lo, hi, N = forcing.ends[0], forcing.ends[1], fstate.delta.size - 1
+    lo, hi, delta, olim = forcing.ends[0], forcing.ends[1], fstate.delta, chain.olim
+    N = delta.size - 1
     for c in range(lo, hi + 1):
-        if (n_hard > 0 or c == 0 or c == N) and fstate.delta[c] >= chain.olim[c]:
+        if (n_hard > 0 or c == 0 or c == N) and delta[c] >= olim[c]:
             return True
     return False
 
