@@ -1,8 +1,8 @@
 """Velocity Verlet with contact dashpots, body forces and driven walls.
 
 One kernel, :func:`forced_chunk`, runs every scene with any of these features;
-the elastic kernels of :mod:`.kernel` are untouched (scenes without them run
-there, bit for bit as before). A step is kick(dt/2) - drift(dt) - kick(dt/2)
+scenes with none of them run the elastic kernels of :mod:`.kernel`, which know
+nothing of this one. A step is kick(dt/2) - drift(dt) - kick(dt/2)
 as in :mod:`.kernel` (Coulomb kicks and viscous drifts exact,
 :mod:`granular_chain.laws.friction`), with the net force of a granule made of
 its contacts' forces (spring + dashpot, :mod:`granular_chain.laws.damping`),
@@ -37,6 +37,9 @@ the step, the clipped force is no derivative: J is then the trapezoid of the
 clipped forces, the one at the end with the velocities predicted by a half
 kick under the old force (error O(dt^2) in them, O(dt^3) in J). Both forms are
 second order; the force-zero end, a kink, costs O(dt^2) once per contact.
+Positions still advance with the dashpot force of the step's start: the
+dashpot is explicit there, stable while c dt / m_eff < 2
+(:func:`~.driver.check_dt` refuses a larger step; the default takes 1/40).
 
 Ledger
 ------
@@ -56,8 +59,11 @@ rest: held by static friction (v = 0 and |f| <= eta_static), or still to
 roundoff: its velocity moves it by at most :data:`REST_ULPS` units in the last
 place of its displacement plus overlaps within a step, and its springs and body
 force balance to what its closed contacts give when displaced by as much (their
-stiffness (n-1) S/delta times that). A column settled under gravity never reaches v = 0
-exactly: the forces balance only to roundoff.
+stiffness (n-1) S/delta times that). A column settled under gravity never
+reaches v = 0 exactly: the forces balance only to roundoff.
+
+Not here: the event log (``output.events``), which the driver refuses for these
+scenes.
 """
 
 from __future__ import annotations
