@@ -209,3 +209,36 @@ def test_resumed_run_keeps_the_event_log():
         resumed = VerletRun(scene, build_model(scene), False).run(resume=state)
         assert resumed.events == whole.events
         assert np.array_equal(resumed.x_final, whole.x_final)
+
+
+def test_resumed_run_with_dashpots_gravity_and_a_driven_wall():
+    """The forced kernel's state (contact overlaps, forces, dashpot primitives, the
+    dashpots' and walls' work, the clock) is checkpointed: a run continued from any
+    checkpoint ends bit for bit as the run never stopped, its shortened last step
+    included (t_end is no multiple of dt)."""
+    import granular_chain as gc
+    from granular_chain.model import build_model
+    from granular_chain.steppers.verlet_run import VerletRun
+
+    scene = gc.scene_from_dict({
+        "granules": {"count": 8, "radius": 2.0, "velocity": {7: -0.5}, "gap": 0.0,
+                     "friction": {"kinetic": 0.02, "static": 0.03, "viscous": 0.05}},
+        "contacts": {"damping": {"model": "linear", "coefficient": 0.2}},
+        "walls": {"left": {"gap": 0.0, "motion": {"sine": {"amplitude": 0.1, "frequency": 0.2}}},
+                  "right": {"gap": 0.3, "motion": {"pulse": {"velocity": -0.1, "duration": 2.0}}}},
+        "body_force": {"g": 0.05, "direction": -1},
+        "run": {"t_end": 30.005, "dt": 0.01}, "output": {"every": 70}})
+    states = []
+    whole = VerletRun(scene, build_model(scene), False, checkpoint=states.append,
+                      checkpoint_every=450).run()
+    led = whole.energy
+    assert min(led.contact_dissipated[-1], abs(led.wall_work[-1]), abs(led.body_work[-1]),
+               led.coulomb[-1], led.viscous[-1]) > 1e-3
+    assert len(states) == 6
+    for state in (states[0], states[3], states[-1]):
+        resumed = VerletRun(scene, build_model(scene), False).run(resume=state)
+        assert resumed.t_final == whole.t_final == 30.005
+        assert np.array_equal(resumed.x_final, whole.x_final)
+        assert np.array_equal(resumed.v_final, whole.v_final)
+        assert resumed.energy.final() == led.final()
+        assert resumed.event_counts == whole.event_counts

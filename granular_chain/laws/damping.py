@@ -34,7 +34,7 @@ DAMPING_LINEAR = 1
 DAMPING_VISCOELASTIC = 2
 
 __all__ = ["DAMPING_NONE", "DAMPING_LINEAR", "DAMPING_VISCOELASTIC", "dashpot_force",
-           "damped_contact_force"]
+           "damped_contact_force", "dashpot_primitive"]
 
 
 @numba.njit(inline="always", cache=True)
@@ -98,3 +98,31 @@ def damped_contact_force(law, damping, tensile, d, w, k, n, coefficient):
     if tensile:
         return f
     return max(f, 0.0)
+
+
+@numba.njit(inline="always", cache=True)
+def dashpot_primitive(law, damping, d, k, n, coefficient):
+    """``Phi(delta)`` with ``D = dPhi/dt`` while the contact is closed (0 if d <= 0).
+
+    Both dashpots are time derivatives of a function of the overlap alone:
+    ``Phi = c delta`` (linear) and ``Phi = A k delta^(n-1)`` (viscoelastic), and
+    ``Phi`` is continuous at ``delta = 0``. So the dashpot's impulse over any time
+    in which the force is not clipped is the change of ``Phi``, exactly, also
+    across the closing of the contact where the linear dashpot's force jumps
+    from 0 to ``c w``.
+
+    Parameters
+    ----------
+    law, damping, d, k, n, coefficient
+        As in :func:`dashpot_force`.
+
+    Returns
+    -------
+    float
+        ``Phi`` (force x time, an impulse).
+    """
+    if damping == DAMPING_NONE or d <= 0.0:
+        return 0.0
+    if damping == DAMPING_LINEAR:
+        return coefficient * d
+    return coefficient * contact_force(law, d, k, n)

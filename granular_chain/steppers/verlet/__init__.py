@@ -3,6 +3,9 @@
 - :mod:`.records`: the named tuples the compiled kernels take (features, chain,
   timestep, state, call, event buffers);
 - :mod:`.kernel`: the compiled step loops (the sweep; the blocked passes);
+- :mod:`.forced`: the step loop of scenes with contact dashpots, body forces or
+  driven walls (:func:`.forced.forced_chunk`), and :mod:`.forced_setup`, its
+  records, step limits and energies on the driver's side;
 - :mod:`.event_log`: the event log (``output.events``);
 - :mod:`.driver`: :class:`VerletRun`, the step plan, chunking, cadences, checkpoints.
 """

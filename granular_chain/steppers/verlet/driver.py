@@ -25,11 +25,15 @@ from ...errors import SimulationError
 from ...forces import net_forces
 from ...frames import Frame, FrameLog
 from ...interrupts import CHUNK_SECONDS, stop_signals
+from ...laws.damping import DAMPING_LINEAR
 from ...laws.friction import drift_tables
 from ...model import Model
-from ...result import OVERLAP_ADVICE, EnergyLedger, Result
+from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Result, ledger_balance
 from ...units import scaled_parameters
 from .event_log import EventLog, new_event_log
+from .forced import forced_chunk
+from .forced_setup import (FORCED_STATE_ARRAYS, body_work, dashpot_rate, energies_at,
+                           forced_dt_limit, forced_records, is_forced, wall_positions)
 from .kernel import chunk_kernel, synchronise
 from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
                       Features, State, Timestep)
@@ -46,9 +50,13 @@ _UNSTABLE_BALANCE = 1.0
 
 def default_dt(model: Model, t_end: float = math.inf) -> float:
     """1/200 of the shortest contact period (or collision time), at most t_end/100,
-    shortened so that a whole number of steps ends exactly at a finite t_end."""
+    shortened so that a whole number of steps ends exactly at a finite t_end.
+    With dashpots or a sine-driven wall, also at most what they allow
+    (:func:`.forced_setup.forced_dt_limit`)."""
     T = model.shortest_period()
     dt = T / _DEFAULT_STEPS_PER_PERIOD if math.isfinite(T) else 1e-2
+    if is_forced(model):
+        dt = min(dt, forced_dt_limit(model))
     dt = min(dt, t_end / 100)
     if math.isfinite(t_end):
         dt = t_end / math.ceil(t_end / dt * (1 - 1e-12))
@@ -56,13 +64,20 @@ def default_dt(model: Model, t_end: float = math.inf) -> float:
 
 
 def check_dt(model: Model, dt: float) -> None:
-    """Refuse a Verlet step the stiffest contact cannot take (SimulationError names run.dt)."""
+    """Refuse a Verlet step the stiffest contact, or the strongest linear dashpot,
+    cannot take (SimulationError names run.dt)."""
     T = model.shortest_period()
     if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
         raise SimulationError(
             f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
             f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
             f"use dt <= {T / 50:.3g} for accuracy")
+    rate = dashpot_rate(model) if is_forced(model) else 0.0
+    if model.features.damping == DAMPING_LINEAR and dt * rate >= 2.0:
+        raise SimulationError(
+            f"run.dt: {dt:g} is too large for the strongest dashpot (relaxation time "
+            f"m_eff/c = {1 / rate:.4g}): the step is unstable from 2 m_eff/c = {2 / rate:.4g} "
+            f"on; use dt <= {1 / (40 * rate):.3g} for accuracy")
 
 
 def _drift_coefficients(model: Model, dt: float):
@@ -202,7 +217,14 @@ class VerletRun:
         # half-step velocities between calls; vs gets the synchronised ones for the
         # frames, and sync the half kick's work and counts that the ledger and the
         # counts lack at the frame's time.
-        self.merged = bool(model.features.coulomb)
+        # A forced scene (dashpots, body forces, driven walls) runs the forced
+        # kernel, which keeps v synchronised (its dashpot forces need them).
+        self.forced = is_forced(model)
+        if self.forced and self.log_events:
+            raise SimulationError(
+                "output.events: the event log is not available yet for scenes with "
+                "contacts.damping, body_force or moving walls; leave it out")
+        self.merged = bool(model.features.coulomb) and not self.forced
         self.vs = self.v.copy() if self.merged else self.v  # synchronised at t = 0
         self.sync = (0.0, 0, 0)
         feat = model.features
@@ -219,8 +241,13 @@ class VerletRun:
         self.state = State(self.u, self.v, self.f, active, self.ledger, self.counts)
         self.opening = 1  # the next call opens the leapfrog (Coulomb runs): v is synchronised
         self.buffers = self.event_log.buffers if self.event_log else new_event_log(N, 0, 0)
-        self.kernel = specialised(chunk_kernel(self.features), self._records(self._control(1)),
-                                  (0,))
+        if self.forced:
+            self.forced_features, self.forcing, self.fstate = forced_records(
+                model, self.state, self.stop_mode)
+            self.kernel = specialised(forced_chunk, self._records(self._control(1)), (0,))
+        else:
+            self.kernel = specialised(chunk_kernel(self.features),
+                                      self._records(self._control(1)), (0,))
         self.limits = _overlap_limits(model)
         ke0, pe0 = model.energies(self.u, self.v)
         self.e0 = ke0 + pe0
@@ -230,9 +257,23 @@ class VerletRun:
     def frame(self, energies=None) -> Frame:
         """The synchronised state at the current time, with its ledger (``energies``:
         the kinetic and elastic energy when already known)."""
-        ke, pe = energies if energies is not None else self.model.energies(self.u, self.vs)
+        ke, pe = energies if energies is not None else self._energies()
+        if self.forced:
+            return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
+                         self.ledger[0], self.ledger[1], self.e0, *self._added_terms())
         return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
                      self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
+
+    def _energies(self):
+        """Kinetic and elastic energy now (the walls where they are at t_now)."""
+        if self.forced:
+            return energies_at(self.model, self.u, self.vs, self.t_now)
+        return self.model.energies(self.u, self.vs)
+
+    def _added_terms(self):
+        """(contact_dissipated, wall_work, body_work) now (forced scenes)."""
+        return (float(self.fstate.work[0]), float(self.fstate.work[1]),
+                body_work(self.model, self.u))
 
     def run(self, resume: Optional[dict] = None) -> Result:
         """Step to t_end or a stop condition; the Result of the run.
@@ -365,6 +406,9 @@ class VerletRun:
             "t_now", "dt_now", "next_thermo", "next_ck", "e0") else np.int64(getattr(self, name))
             for name in self._STATE_SCALARS})
         state["active"] = self.state.active.copy()
+        if self.forced:
+            for name in FORCED_STATE_ARRAYS:
+                state[f"forced_{name}"] = getattr(self.fstate, name).copy()
         state["opening"] = np.int64(self.opening)
         state["frames"] = np.int64(self.log.count)
         state["max_error"] = np.float64(self.log.max_balance_error)
@@ -383,6 +427,9 @@ class VerletRun:
         for name in self._STATE_ARRAYS:
             getattr(self, name)[:] = state[name]
         self.state.active[:] = state["active"]
+        if self.forced:
+            for name in FORCED_STATE_ARRAYS:
+                getattr(self.fstate, name)[:] = state[f"forced_{name}"]
         self.opening = int(state["opening"])
         for name in self._STATE_SCALARS:
             value = state[name]
@@ -414,6 +461,9 @@ class VerletRun:
 
     def _records(self, control: Call) -> tuple:
         """The kernel's arguments for one call."""
+        if self.forced:
+            return (self.forced_features, self.chain, self.timestep, self.state, control,
+                    self.forcing, self.fstate)
         return self.features, self.chain, self.timestep, self.state, control, self.buffers
 
     def _advance(self, chunk, n_steps: int) -> int:
@@ -446,7 +496,15 @@ class VerletRun:
                                 0.5 * self.timestep.dt)
             self.opening = 1
         self.timestep = Timestep(self.last_dt, *_drift_coefficients(self.model, self.last_dt))
+        if self.forced:  # the short step starts at t_now: its clock restarts there
+            self.fstate.clock[:] = (self.t_now, 0.0)
         self.n_total += 1
+
+    def _wall_shift(self):
+        """(s_L, s_R): the walls' displacements now (zeros unless driven)."""
+        if self.forced and self.model.features.driven:
+            return wall_positions(self.model, self.t_now)
+        return (0.0, 0.0)
 
     def _synchronise(self, code: int) -> int:
         """Synchronise a merged-kick run's velocities (into vs); rest read off them."""
@@ -481,22 +539,31 @@ class VerletRun:
                 f"contact {self.stop_contact} opened at t = {self.t_now:.12g} (located inside "
                 f"the step by a second-order backtrack)")
         elif code == Status.AT_REST:
+            held = "held by static friction, or still to roundoff" if self.forced else \
+                "held by static friction"
             ended = Status.AT_REST, (
-                f"every granule at rest (held by static friction) at t = {self.t_now:.12g}")
-        problem = _overlap_problem(model, u, self.limits)
+                f"every granule at rest ({held}) at t = {self.t_now:.12g}")
+        problem = _overlap_problem(model, u, self.limits, self._wall_shift())
         if problem:
             message = f"{problem} at t = {self.t_now:.6g}; " + OVERLAP_ADVICE
             if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
                 message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
                             f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
             return (Status.OVERLAP, message), None
-        ke, pe = model.energies(u, vs)
+        ke, pe = self._energies()
         balance = abs(ke + pe + self.ledger[0] - self.sync[0] + self.ledger[1] - self.e0)
-        if self.e0 > 0 and not balance <= _UNSTABLE_BALANCE * self.e0:
+        scale = self.e0
+        if self.forced:
+            terms = self._added_terms()
+            balance = abs(ledger_balance(ke, pe, self.ledger[0], self.ledger[1], *terms,
+                                         self.e0))
+            # (what the ledger holds: a column settling starts with no energy)
+            scale = max(self.e0, ke + pe, *(abs(x) for x in terms))
+        if scale > 0 and not balance <= _UNSTABLE_BALANCE * scale:
             # A stable run balances its ledger to O(dt^2); an error as large
             # as the initial energy itself means the integration blew up.
             return (Status.UNSTABLE, (
-                f"energy ledger off by {balance / self.e0:.3g} x the initial energy at "
+                f"energy ledger off by {balance / scale:.3g} x the initial energy at "
                 f"t = {self.t_now:.6g}: the integration is unstable; reduce run.dt (now "
                 f"{dt:g}; stiffest contact time {T:.4g})")), None
         return ended, (ke, pe)
@@ -514,7 +581,8 @@ def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt,
     energy = EnergyLedger(
         kinetic=log.array("kinetic"), potential=log.array("potential"),
         coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0,
-        streamed_error=None if log.keep else log.max_balance_error)
+        streamed_error=None if log.keep else log.max_balance_error,
+        **{name: log.array(name) for name in TERMS_ADDED})
     x, v = log.array("x"), log.array("v")
     counts_d = dict(zip(EVENT_KINDS, (int(n) for n in counts)))
     info = {"features": model.features.describe(), "granules": model.count,
@@ -608,13 +676,14 @@ def _overlap_caps(model: Model):
     return olim, float(np.min(at_limit))
 
 
-def _overlap_problem(model: Model, u, limits) -> str:
+def _overlap_problem(model: Model, u, limits, shift=(0.0, 0.0)) -> str:
     """Describe the first contact whose granules have passed each other, or ''.
 
     Checked at the output cadence. An overlap of r_i + r_(i+1) puts two centres
     on top of each other: beyond it the granules are in the wrong order (a
     crossing between two frames leaves them so), and the one-sided contact
-    model no longer describes the scene.
+    model no longer describes the scene. ``shift``: the walls' displacements
+    (s_L, s_R) now.
     """
     lim, left, right = limits
     if model.count > 1:
@@ -625,10 +694,11 @@ def _overlap_problem(model: Model, u, limits) -> str:
             return (f"contact {i} overlaps by {delta[i]:.4g}, not less than the sum of the "
                     f"radii {lim[i]:.4g}")
     w = model.walls
-    if model.features.left_wall and w[0] - u[0] >= left:
-        return f"granule 0 overlaps the left wall by {w[0] - u[0]:.4g}, more than its radius"
-    if model.features.right_wall and w[3] + u[-1] >= right:
-        return (f"granule {model.count - 1} overlaps the right wall by {w[3] + u[-1]:.4g}, "
+    d_left, d_right = w[0] + shift[0] - u[0], w[3] + u[-1] - shift[1]
+    if model.features.left_wall and d_left >= left:
+        return f"granule 0 overlaps the left wall by {d_left:.4g}, more than its radius"
+    if model.features.right_wall and d_right >= right:
+        return (f"granule {model.count - 1} overlaps the right wall by {d_right:.4g}, "
                 f"more than its radius")
     return ""
 

@@ -1,0 +1,124 @@
+"""The driver's side of :mod:`.forced`: records, time step limits, energies.
+
+A scene is *forced* when it has a dashpot, a body force or a moving wall
+(``not model.features.elastic_and_fixed``); it then runs
+:func:`.forced.forced_chunk`, and everything here applies. Elastic scenes never
+reach this module.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..._compile import specialised
+from ...forces import total_potential
+from ...laws.damping import DAMPING_LINEAR, DAMPING_VISCOELASTIC
+from ...laws.wall_motion import WALL_SINE, wall_displacement
+from ...model import Model
+from .forced import ForcedFeatures, ForcedState, Forcing, forced_start
+
+__all__ = ["is_forced", "forced_records", "forced_dt_limit", "dashpot_rate", "wall_positions", "energies_at",
+           "body_work", "FORCED_STATE_ARRAYS"]
+
+#: Steps per damping time m_eff/c of the fastest dashpot (default dt), and per
+#: period of a sine-driven wall.
+STEPS_PER_DAMPING_TIME = 40
+STEPS_PER_WALL_PERIOD = 200
+
+#: The ForcedState arrays a checkpoint keeps (the work arrays are rebuilt each step).
+FORCED_STATE_ARRAYS = ("delta", "spring", "dashpot", "phi", "force", "work", "clock")
+
+
+def is_forced(model: Model) -> bool:
+    """Whether the scene needs the forced kernel (dashpot, body force or moving wall)."""
+    return not model.features.elastic_and_fixed
+
+
+def _with_walls(model: Model, chain_values, left, right) -> np.ndarray:
+    return np.ascontiguousarray(np.concatenate(([left], chain_values, [right])), dtype=np.float64)
+
+
+def forced_records(model: Model, state, stop_mode: int):
+    """(ForcedFeatures, Forcing, ForcedState) of a model, the contact state set for
+    (state.u, state.v) at t = 0 and state.f the net force (compiles the kernel's
+    start function for these features)."""
+    feat, N, w = model.features, model.count, model.walls
+    features = ForcedFeatures(law=int(feat.law), coulomb=int(feat.coulomb),
+                              viscous=int(feat.viscous), damping=int(feat.damping))
+    forcing = Forcing(
+        d0=_with_walls(model, model.d0, w[0], w[3]), k=_with_walls(model, model.k, w[1], w[4]),
+        n=_with_walls(model, model.n, w[2], w[5]),
+        coefficient=_with_walls(model, model.damping, *model.wall_damping),
+        body=np.ascontiguousarray(model.body_force, dtype=np.float64),
+        motion=np.ascontiguousarray(model.wall_motion, dtype=np.float64),
+        ends=np.array([0 if feat.left_wall else 1, N if feat.right_wall else N - 1],
+                      dtype=np.int64),
+        tensile=int(feat.tensile), stop_mode=int(stop_mode))
+    fstate = ForcedState(*(np.zeros(N + 1) for _ in range(6)), np.zeros(N), np.zeros(2),
+                         np.zeros(2))
+    args = (features, state, forcing, fstate, 0.0)
+    specialised(forced_start, args, (0,))(*args)
+    return features, forcing, fstate
+
+
+def dashpot_rate(model: Model) -> float:
+    """Largest relaxation rate of a relative velocity by a dashpot (1/time; 0 without).
+
+    A linear dashpot c between masses of reduced mass m_eff (a wall's granule
+    alone for a wall contact): c / m_eff. A viscoelastic one acts like a linear
+    dashpot A k_eff, k_eff the contact's linear stiffness: A (2 pi / T)^2 with T
+    the shortest contact time (an estimate: 0 when T is unknown).
+    """
+    feat, m = model.features, model.mass
+    mu = np.concatenate((m[:-1] * m[1:] / (m[:-1] + m[1:]), m[:1], m[-1:]))
+    c = np.concatenate((model.damping, model.wall_damping))
+    if feat.damping == DAMPING_LINEAR and c.size:
+        return float(np.max(c / mu[: c.size]))
+    if feat.damping == DAMPING_VISCOELASTIC and c.size:
+        T = model.shortest_period()
+        return float(np.max(c)) * (2 * math.pi / T) ** 2 if math.isfinite(T) else 0.0
+    return 0.0
+
+
+def forced_dt_limit(model: Model) -> float:
+    """Largest default step the forced features allow (inf when none limits it):
+    1/40 of the fastest dashpot's time 1/:func:`dashpot_rate` (the dashpot's
+    explicit part is unstable at 2 of them; at 1/40 the ledger's error from it is
+    about 3e-4 of the energy a collision loses), and 200 steps per period of a
+    sine-driven wall."""
+    limit = math.inf
+    rate = dashpot_rate(model)
+    if rate > 0:
+        limit = 1.0 / (STEPS_PER_DAMPING_TIME * rate)
+    for kind, _, frequency in model.wall_motion:
+        if int(kind) == WALL_SINE:
+            limit = min(limit, 1.0 / (STEPS_PER_WALL_PERIOD * frequency))
+    return limit
+
+
+def wall_positions(model: Model, t: float) -> tuple[float, float]:
+    """(s_L, s_R): the walls' displacements at time t."""
+    return tuple(float(wall_displacement(int(k), p1, p2, t)) for k, p1, p2 in model.wall_motion)
+
+
+def energies_at(model: Model, u, v, t: float) -> tuple[float, float]:
+    """Kinetic and elastic energy of (u, v) at time t, the wall contacts' overlaps
+    taken with the walls where they are at t."""
+    if not model.features.driven:
+        return model.energies(u, v)
+    s_left, s_right = wall_positions(model, t)
+    walls = model.walls.copy()
+    walls[0] += s_left  # delta_L = d0_L + s_L - u_0
+    walls[3] -= s_right  # delta_R = d0_R + u_(N-1) - s_R
+    feat = model.features
+    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, model.d0, model.k,
+            model.n, walls)
+    ke = 0.5 * float(np.dot(model.mass, v * v))
+    return ke, float(specialised(total_potential, args, (0, 1, 2))(*args))
+
+
+def body_work(model: Model, u) -> float:
+    """Work done by the body forces since t = 0: sum_i f_i u_i (exact: they are constant)."""
+    return float(np.dot(model.body_force, u))
