@@ -204,19 +204,17 @@ def _verlet_steps(scene, model) -> tuple[int, float]:
                       f"{t_end:g}; use run.dt <= run.t_end")
     if run.dt is not None:
         dt, how = run.dt, ""
-    else:
-        T = model.shortest_period()
-        dt = min(T / 200 if math.isfinite(T) else 1e-2, t_end / 100)
-        how = f" (the default dt, 1/200 of the shortest contact time {T:.4g})"
+    else:  # the driver's own default (contact time, dashpots, a sine wall's period)
+        from .simulate import default_dt
+        dt = default_dt(model, t_end)
+        how = (f" (the default dt: 1/200 of the shortest contact time "
+               f"{model.shortest_period():.4g}, or less for dashpots or a driven wall)")
     ratio = t_end / dt
     if not ratio <= run.max_steps and (not run.stop_conditions or not ratio < 2 ** 62):
         raise _refuse("run.max_steps", (
             f"reaching run.t_end = {t_end:g} with run.dt = {dt:.4g}{how} takes {ratio:.4g} "
             f"steps, more than run.max_steps = {run.max_steps}; raise run.max_steps or "
             f"run.dt, or shorten run.t_end"))
-    if run.dt is None:
-        from .simulate import default_dt
-        dt = default_dt(model, t_end)
     n_steps = min(steps_and_dt(t_end, dt)[0], run.max_steps)
     return n_steps, dt
 

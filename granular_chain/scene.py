@@ -595,6 +595,13 @@ class Scene(_Strict):
                     "contacts.damping.model", f"restitution sets a linear dashpot from e, "
                     f"which is exact for n = 2 only, but contacts.exponent is {bad}: use "
                     f"model linear (c) or viscoelastic (A)")
+        moving = any(w is not None and w.motion is not None
+                     for w in (self.walls.left, self.walls.right))
+        if (self.output.events and self.run.stepper == "verlet"
+                and (damping is not None or self.body_force is not None or moving)):
+            raise _FieldProblem("output.events", "the Verlet stepper does not log events for "
+                                "scenes with contacts.damping, body_force or a moving wall: "
+                                "leave it out, or use run.stepper: event (which logs every event)")
         body = self.body_force
         if body is not None and isinstance(body.force, list) and len(body.force) != n:
             raise _FieldProblem("body_force.force", f"has {len(body.force)} values but "

@@ -226,6 +226,17 @@ EXTREMES = [
     ("frames-output-dt", {"run.t_end": 1e7, "run.max_steps": 2_000_000_000,
                           "output.every": _DELETE, "output.dt": 0.01},
      ["output.every", "set output.every"]),
+    ("damping-restitution-hertz", {"contacts.exponent": 2.5,
+                                   "contacts.damping": {"model": "restitution", "value": 0.8}},
+     ["contacts.damping.model", "n = 2 only"]),
+    ("damping-no-coefficient", {"contacts.damping": {"model": "linear"}},
+     ["contacts.damping.coefficient", "needs coefficient"]),
+    ("damping-events-verlet", {"contacts.damping": {"model": "linear", "coefficient": 0.1},
+                               "output.events": True}, ["output.events", "run.stepper: event"]),
+    ("wall-two-motions", {"walls.left": {"motion": {"velocity": 1.0, "pulse": {
+        "velocity": 1.0, "duration": 1.0}}}}, ["walls.left.motion", "exactly one"]),
+    ("body-force-length", {"body_force": {"force": [1.0, 2.0]}},
+     ["body_force.force", "granules.count"]),
 ]
 # refused by check_budget (memory, steps, derived scales), not by the schema
 BUDGET = {"gap-1e300", "gap-1e14", "stiffness-1e150-steps", "stiffness-1e150-event",
