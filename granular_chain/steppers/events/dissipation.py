@@ -334,3 +334,24 @@ def dissipative_increment(P, na, model, state, work, tau):
         if j == N and model.wall_motion[1, 0] != 0.0 and state.closed[N] == 1:
             ww -= _product_integral(Fc[N], W[1], P, tau)
     return wd, ww
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
+def branch_cap(h, na, model, work):
+    """Keep the step within half the distance ``delta / |delta'|`` to the branch point
+    at delta = 0 of a switched-on viscoelastic contact (n != 2).
+
+    Its force has a ``delta^(n-2) delta'`` term, as singular there as the
+    spring's derivative; just after the switch-on that point lies a step behind,
+    and the step control, scaled by the first coefficients, let a step of 1.5
+    times that distance through: its force series summed to a spurious zero
+    (a two-grain collision at rtol 1e-12 opened 2e-8 after it began).
+    """
+    if model.dashpot[0] == DAMPING_LINEAR:
+        return h
+    D = work.d_series
+    for q in range(na):
+        j = work.active[q]
+        if work.force_on[j] == 1.0 and model.damping[j] != 0.0 and D[j, 1] != 0.0:
+            h = min(h, 0.5 * D[j, 0] / abs(D[j, 1]))
+    return h

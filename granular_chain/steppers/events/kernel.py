@@ -64,7 +64,7 @@ from .modes import all_at_rest, is_moving, log_event, settle, spring_force, upda
 from .output import record_frame
 from .records import GOING
 from .roots import CENTRES_MEET, SWITCH_ON, contact_candidates, friction_candidates
-from .dissipation import (FORCE_CLOSE, FORCE_OPEN, TIME_EVENT, build_dissipative,
+from .dissipation import (FORCE_CLOSE, FORCE_OPEN, TIME_EVENT, branch_cap, build_dissipative,
                           dissipative_candidates, dissipative_increment, wall_rates, wall_series)
 from .series import build_series, horner, increment, ledger_increment, step_size
 
@@ -291,6 +291,8 @@ def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, wo
     if settings.step_cap > 0.0:
         h = min(h, settings.step_cap)
     h = step_size(linear, P, settings.rtol, settings.atol, h, nm, na, state, work)
+    if dissip and not linear:
+        h = branch_cap(h, na, model, work)
     if not (h > 0.0) or not math.isfinite(h):
         return Status.NONFINITE.value, 0, 0.0, 0
     if dissip:
