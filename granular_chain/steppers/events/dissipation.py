@@ -36,7 +36,7 @@ from ...codes import EventKind
 from ...laws.contact import LAW_LINEAR, contact_force
 from ...laws.damping import DAMPING_LINEAR
 from ...laws.wall_motion import WALL_PULSE, WALL_SINE, WALL_VELOCITY, wall_speed
-from .roots import CENTRES_MEET, SWITCH_ON, _switch_on_overlap, first_root
+from .roots import CENTRES_MEET, SWITCH_ON, first_root
 from .series import force_term
 
 #: Candidate kind: a non-tensile contact's total force reaches zero (it opens, overlap > 0).
@@ -244,14 +244,23 @@ def _force_root(P, h, sgn, j, work):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _switch_on(P, h, tol_v, j, model, state, work):
-    """Root of a closed contact whose spring is off reaching the overlap at which it
-    is switched on (:func:`.roots._switch_on_overlap`; a viscoelastic dashpot's
-    impulse A k d^(n-1) counts too). inf when none."""
+    """Root of a closed contact whose spring is off reaching the overlap ``don`` at
+    which it is switched on, inf when none: the rule of
+    :func:`.roots._switch_on_overlap` with the overlap rate counting a moving
+    wall's velocity (a wall driven into a granule at rest closes a contact that
+    no granule's velocity shows), and a viscoelastic dashpot's impulse
+    ``A k d^(n-1)`` counting too."""
     D = work.d_series
-    don = _switch_on_overlap(P, tol_v, j, model, state, work)
+    n, k = model.exponent[j], model.stiffness[j]
+    w = abs(contact_rate(model, state, j))
+    don = -1.0
+    if D[j, 1] != 0.0:
+        don = 1.5 * (0.1 * n * w * tol_v / k) ** (1.0 / n)
+    elif D[j, 2] > 0.0:
+        don = (0.1 * tol_v * (2.0 * n - 1.0) * math.sqrt(D[j, 2])
+               / k) ** (1.0 / (n - 0.5))
     if model.damping[j] != 0.0 and model.dashpot[0] != DAMPING_LINEAR:
-        n = model.exponent[j]
-        d2 = 1.5 * (0.1 * tol_v / (model.damping[j] * model.stiffness[j])) ** (1.0 / (n - 1.0))
+        d2 = 1.5 * (0.1 * tol_v / (model.damping[j] * k)) ** (1.0 / (n - 1.0))
         don = d2 if don < 0.0 else min(don, d2)
     if D[j, 0] < don:
         return first_root(D[j], P, 1.0, don, h)
@@ -282,7 +291,11 @@ def dissipative_candidates(linear, P, h, tol_v, t, tlo, na, model, state, work):
             ncand = _add(work, ncand, CENTRES_MEET, j, r3)
             r = min(r, r3)
         elif non_tensile(model, j) and D[j, 0] > 0.0:
-            r = _force_root(P, h, 1.0, j, work)
+            # the total force of an overlap that is still positive: past the
+            # overlap's zero the force is not defined (and a Hertz spring's series
+            # sums its other branch), so a root there is none
+            r_d = first_root(D[j], P, -1.0, 0.0, h)
+            r = _force_root(P, min(h, r_d), 1.0, j, work)
             ncand = _add(work, ncand, FORCE_CLOSE, j, r)
         else:
             r = first_root(D[j], P, 1.0, 0.0, h)

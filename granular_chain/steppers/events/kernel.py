@@ -278,6 +278,8 @@ def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, wo
     vscale = 0.0
     for q in range(nm):
         vscale = max(vscale, abs(state.v[state.moving[q]]))
+    if dissip:  # a wall driven into granules at rest sets the speed scale
+        vscale = max(vscale, abs(state.wall_rate[0]), abs(state.wall_rate[1]))
     tol_v = settings.rtol * vscale + settings.atol
     if dissip:
         wall_series(P, t, tlo, model, work)
