@@ -415,11 +415,15 @@ def _dissipative_frame(law, tf, P, na, x, dwc, dwv, clock, model, state, work, f
     and put back exactly (the step adds its whole increment at its end)."""
     dwd, dww = dissipative_increment(P, na, model, state, work, x)
     wd, ww = clock.work_contact, clock.work_wall
+    rl, rr = state.wall_rate[0], state.wall_rate[1]
     clock.work_contact = wd + dwd
     clock.work_wall = ww + dww
+    wall_rates(tf, 0.0, model, state)  # (the walls' dashpots in the frame's forces)
     record_frame(law, tf, clock, model, state, frames, dwc, dwv)
     clock.work_contact = wd
     clock.work_wall = ww
+    state.wall_rate[0] = rl
+    state.wall_rate[1] = rr
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)

@@ -17,6 +17,7 @@ import numba
 from ...codes import EventKind
 from ...laws.contact import LAW_LINEAR, contact_energy, contact_force
 from ...laws.damping import damped_contact_force, dashpot_force
+from ...laws.wall_motion import WALL_PULSE
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
@@ -336,6 +337,11 @@ def update_moving_set(lo, hi, clock, model, state):
 def all_at_rest(law, clock, model, state):
     """Every granule at rest for good. Granules outside the moving set are stuck
     (v = 0 exactly): only the moving set needs a look."""
+    for side in range(2):
+        # a wall that moves (or will: a sine at a turning point) can set them going
+        kind = model.wall_motion[side, 0]
+        if kind != 0.0 and (kind != WALL_PULSE or state.wall_rate[side] != 0.0):
+            return False
     for q in range(clock.n_moving):
         i = state.moving[q]
         if state.v[i] != 0.0:
