@@ -80,10 +80,14 @@ def run_events(law, coulomb, viscous, dissip, settings_array, clock_array, model
 
     Parameters
     ----------
-    law, coulomb, viscous, dissip : int
-        Compile-time feature codes (contact law, Coulomb and viscous friction
-        present, dashpots or body forces or driven walls present:
-        :mod:`.dissipation`).
+    law, coulomb, viscous : int
+        Compile-time feature codes (contact law, Coulomb and viscous friction present).
+    dissip : None or int
+        None: an elastic chain between fixed walls; an int (1): dashpots, body
+        forces or driven walls present (:mod:`.dissipation`). A type, not a
+        literal value, because numba prunes ``dissip is None`` branches in every
+        callee, inlined ones too, and a literal's branches only in the kernel
+        itself: the elastic kernels then hold none of the dissipative code.
     settings_array, clock_array : ndarray, shape (1,)
         :data:`~.records.SETTINGS_DTYPE` and :data:`~.records.CLOCK_DTYPE` records.
     model, state, work, frames, log
@@ -104,7 +108,6 @@ def run_events(law, coulomb, viscous, dissip, settings_array, clock_array, model
     law = literally(law)
     coulomb = literally(coulomb)
     viscous = literally(viscous)
-    dissip = literally(dissip)
     settings = settings_array[0]
     clock = clock_array[0]
     if clock.started == 0:
@@ -151,7 +154,7 @@ def _start(law, dissip, settings, clock, model, state, work, frames, log):
     clock.started = 1
     work.window[0] = 0
     work.window[1] = N - 1
-    if dissip:
+    if dissip is not None:
         wall_rates(clock.time, clock.time_lo, model, state)
     settle(law, clock.time, settings, clock, model, state, work, log)
     # The moving set (is_moving) is kept incrementally from here on.
@@ -168,7 +171,7 @@ def _start(law, dissip, settings, clock, model, state, work, frames, log):
     clock.next_frame = 1
     if settings.stop_rest == 1 and all_at_rest(law, clock, model, state):
         return Status.AT_REST.value
-    if not dissip and try_jump(law, settings, clock, model, state):
+    if dissip is None and try_jump(law, settings, clock, model, state):
         record_frame(law, clock.time, clock, model, state, frames, 0.0, 0.0)
         return Status.T_END.value
     return GOING
@@ -195,8 +198,8 @@ def _step(law, coulomb, viscous, dissip, settings, clock, model, state, work, fr
     closed, no dashpot) or Taylor. Returns (code, event, tau_e, ncand) as
     :func:`taylor_step`."""
     N = state.u.size
-    if (not dissip and law == LAW_LINEAR and N == 2 and model.present[0] == 0 and model.present[2] == 0
-            and state.closed[1] == 1):
+    if (dissip is None and law == LAW_LINEAR and N == 2 and model.present[0] == 0
+            and model.present[2] == 0 and state.closed[1] == 1):
         if modal_n2.setup(work.modal[0], coulomb, viscous, model, state):
             for j in range(N + 1):
                 work.contact_flag[j] = 0
@@ -227,7 +230,7 @@ def _collect_active(dissip, nm, model, state, work):
     N = state.u.size
     na = 0
     nc = 0
-    if dissip:
+    if dissip is not None:
         for side in range(2):
             j = side * N
             if model.wall_motion[side, 0] != 0.0 and model.present[j] == 1:
@@ -278,10 +281,10 @@ def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, wo
     vscale = 0.0
     for q in range(nm):
         vscale = max(vscale, abs(state.v[state.moving[q]]))
-    if dissip:  # a wall driven into granules at rest sets the speed scale
+    if dissip is not None:  # a wall driven into granules at rest sets the speed scale
         vscale = max(vscale, abs(state.wall_rate[0]), abs(state.wall_rate[1]))
     tol_v = settings.rtol * vscale + settings.atol
-    if dissip:
+    if dissip is not None:
         wall_series(P, t, tlo, model, work)
         build_dissipative(law, coulomb, viscous, P, tol_v, nm, na, model, state, work)
     else:
@@ -293,11 +296,12 @@ def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, wo
     if settings.step_cap > 0.0:
         h = min(h, settings.step_cap)
     h = step_size(linear, P, settings.rtol, settings.atol, h, nm, na, state, work)
-    if dissip and not linear:
-        h = branch_cap(h, na, model, work)
+    if dissip is not None:
+        if not linear:
+            h = branch_cap(h, na, model, work)
     if not (h > 0.0) or not math.isfinite(h):
         return Status.NONFINITE.value, 0, 0.0, 0
-    if dissip:
+    if dissip is not None:
         tau_e, ncand = dissipative_candidates(linear, P, h, tol_v, t, tlo, na, model, state,
                                               work)
     else:
@@ -362,7 +366,7 @@ def _frames_in_step(law, coulomb, viscous, dissip, t_new, na, settings, clock, m
             work.saved_overlap[j] = overlap[j]
             overlap[j] = horner(work.d_series[j], P, x)
         dwc, dwv = ledger_increment(coulomb, viscous, P, nm, model, state, work, x)
-        if dissip:
+        if dissip is not None:
             _dissipative_frame(law, tf, P, na, x, dwc, dwv, clock, model, state, work, frames)
         else:
             record_frame(law, tf, clock, model, state, frames, dwc, dwv)
@@ -387,7 +391,7 @@ def _advance(coulomb, viscous, dissip, P, tau, t_new, t_lo_new, na, clock, model
     dwc, dwv = ledger_increment(coulomb, viscous, P, nm, model, state, work, tau)
     clock.work_coulomb += dwc
     clock.work_viscous += dwv
-    if dissip:
+    if dissip is not None:
         dwd, dww = dissipative_increment(P, na, model, state, work, tau)
         clock.work_contact += dwd
         clock.work_wall += dww
@@ -552,7 +556,7 @@ def _after_batch(law, dissip, t_new, tau_e, nev_before, opened, settings, clock,
         if not at_events:
             record_frame(law, t_new, clock, model, state, frames, 0.0, 0.0)
         return code
-    if not dissip and try_jump(law, settings, clock, model, state):
+    if dissip is None and try_jump(law, settings, clock, model, state):
         record_frame(law, clock.time, clock, model, state, frames, 0.0, 0.0)
         return Status.T_END.value
     return GOING

@@ -70,7 +70,8 @@ class Packed:
 
     def call(self) -> int:
         """Run the kernel on the records (until it returns a Status or a Pause)."""
-        return self.kernel(self.law, self.coulomb, self.viscous, self.dissip, *self.records)
+        return self.kernel(self.law, self.coulomb, self.viscous, dissipative_arg(self.dissip),
+                           *self.records)
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
@@ -136,6 +137,11 @@ def dissipative(model: Model) -> int:
     code is left out and the kernels are those of the frictionless and friction
     cases, bit for bit)."""
     return 0 if model.features.elastic_and_fixed else 1
+
+
+def dissipative_arg(dissip: int):
+    """The kernel's ``dissip`` argument: None (elastic, fixed walls) or 1."""
+    return 1 if dissip else None
 
 
 def _dissipation_arrays(model: Model):
@@ -244,8 +250,8 @@ def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packe
     records = EventRecords(settings, clock, chain, state,
                            _workspace(N, int(settings["order"][0])), frame_buffers(fcap, N), log)
     dissip = dissipative(model)
-    kernel = specialised(run_events, (law, int(feat.coulomb), int(feat.viscous), dissip)
-                         + records, (0, 1, 2, 3))
+    kernel = specialised(run_events, (law, int(feat.coulomb), int(feat.viscous),
+                                      dissipative_arg(dissip)) + records, (0, 1, 2))
     ke0 = 0.5 * float(np.dot(model.mass, v * v))
     return Packed(records=records, kernel=kernel, law=law, coulomb=int(feat.coulomb),
                   viscous=int(feat.viscous), dissip=dissip, options=options, ke0=ke0)
