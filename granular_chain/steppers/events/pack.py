@@ -131,11 +131,11 @@ def _contacts(model: Model):
 
 
 def dissipative(model: Model) -> int:
-    """The kernel's fourth feature code: 1 when the scene has dashpots, body forces
-    or a driven wall (their code is compiled in; their kinds, tensile and the wall
-    motion are runtime values), 0 for an elastic chain between fixed walls (the
-    code is left out and the kernels are those of the frictionless and friction
-    cases, bit for bit)."""
+    """1 when the scene has dashpots, body forces or a driven wall (their code is
+    compiled in; their kinds, tensile and the wall motion are runtime values), 0
+    for an elastic chain between fixed walls (the code is left out and the
+    kernels compute what the frictionless and friction cases did, bit for bit).
+    The kernel receives it as :func:`dissipative_arg`."""
     return 0 if model.features.elastic_and_fixed else 1
 
 
