@@ -131,7 +131,8 @@ def two_granule_scene(n: float = 2.0, eta=(0.0, 0.0), gamma=(0.0, 0.0), *,
 def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verlet",
             dt: Optional[float] = None, *, eta_static=None, t_max: float = 1000.0,
             rtol: Optional[float] = None, atol: Optional[float] = None,
-            rest_tol: Optional[float] = None) -> Collision:
+            rest_tol: Optional[float] = None, damping: Optional[dict] = None,
+            tensile: bool = False) -> Collision:
     """Collide two granules as in the paper and classify the outcome.
 
     Parameters
@@ -162,19 +163,29 @@ def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verl
         dt^2 for Verlet, whose frictionless granule 1 ends at v1 = O(dt^2).
         Relative, so that a collision ending with both speeds tiny (near
         critical damping, ~1e-20) is still named by their signs.
+    damping : mapping, optional
+        The contact's dashpot, as the scene's ``contacts.damping``:
+        ``{"model": "linear", "coefficient": c}``, ``{"model": "viscoelastic",
+        "coefficient": A}`` or ``{"model": "restitution", "value": e}`` (n = 2).
+        Absent: the paper's elastic contact.
+    tensile : bool
+        The scene's ``contacts.tensile``: False (default), the contact ends when
+        its total force reaches zero; True, at overlap zero (it may pull before).
 
     Returns
     -------
     Collision
     """
-    if stepper == "event":
+    if stepper == "event" and damping is None:
         fast = _collide_batched(n, eta, gamma, dt, eta_static, t_max, rtol, atol, rest_tol)
         if fast is not None:
             return fast
-    scene = scene_from_dict(
-        two_granule_scene(n, eta, gamma, stepper=stepper, dt=dt, eta_static=eta_static,
-                          t_max=t_max, rtol=rtol, atol=atol),
-        source="collide()")
+    spec = two_granule_scene(n, eta, gamma, stepper=stepper, dt=dt, eta_static=eta_static,
+                             t_max=t_max, rtol=rtol, atol=atol)
+    if damping is not None:
+        spec["contacts"]["damping"] = dict(damping)
+        spec["contacts"]["tensile"] = bool(tensile)
+    scene = scene_from_dict(spec, source="collide()")
     result = simulate(scene, progress=False)
     if rest_tol is None:
         rest_tol = default_rest_tol(n, result.dt, scene.run.rtol)

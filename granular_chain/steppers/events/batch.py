@@ -99,7 +99,8 @@ def _run_points(law, coulomb, viscous, rec, flat, template, points, out, start, 
         initial_friction_modes(rec.model, rec.state)
         if law == LAW_LINEAR:
             rec.settings[0].step_cap = linear_step_cap(rec.model)
-        code = run_events(law, coulomb, viscous, rec.settings, rec.clock, rec.model, rec.state,
+        code = run_events(law, coulomb, viscous, None, rec.settings, rec.clock, rec.model,
+                          rec.state,
                           rec.work, rec.frames, rec.log)
         if code == Pause.LOG_FULL or code == Pause.CHUNK_DONE:
             return p

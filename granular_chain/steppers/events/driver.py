@@ -26,7 +26,7 @@ from ...frames import Frame, FrameLog
 from ...interrupts import CHUNK_SECONDS, stop_signals
 from ...ledger import ledger_verdict
 from ...model import Model
-from ...result import EnergyLedger, Event, Result
+from ...result import EnergyLedger, Event, Result, ledger_balance
 from ...units import internal_scales, scaled_model, speed_scale, unit_factors
 from .options import EventOptions, event_options
 from .output import record_final_frame
@@ -49,7 +49,7 @@ PACE_MIN_STEPS = 10_000
 #: measured wall time (:func:`next_budget`).
 FIRST_BUDGET = 64
 #: Version of the checkpoint dictionary (:func:`checkpoint_state`).
-CHECKPOINT_FORMAT = 2
+CHECKPOINT_FORMAT = 3
 #: Record groups of the kernel saved in a checkpoint (the buffers are saved live rows only).
 _SAVED_GROUPS = ("state", "work")
 
@@ -156,7 +156,9 @@ def _to_scene_units(r: Result, u, streamed: bool) -> None:
         led = r.energy
         r.energy = EnergyLedger(kinetic=led.kinetic * u.e, potential=led.potential * u.e,
                                 coulomb=led.coulomb * u.e, viscous=led.viscous * u.e,
-                                initial=led.initial * u.e)
+                                initial=led.initial * u.e,
+                                contact_dissipated=led.contact_dissipated * u.e,
+                                wall_work=led.wall_work * u.e, body_work=led.body_work * u.e)
         r.t, r.x, r.v, r.f = r.t * u.t, r.x * u.x, r.v * u.v, r.f * u.f
     r.t_final, r.x_final, r.v_final = r.t_final * u.t, r.x_final * u.x, r.v_final * u.v
     r.events = [Event(e.t * u.t, e.kind, e.index) for e in r.events]
@@ -382,8 +384,8 @@ class EventRun:
         if nfr > self.handed:
             block = fr_e[self.handed:nfr]
             # the ledger error in kernel units, as EnergyLedger.balance_error forms it
-            worst = float(np.max(np.abs(block[:, 0] + block[:, 1] + block[:, 2]
-                                        + block[:, 3] - e0)))
+            cols = [block[:, c] for c in range(7)]
+            worst = float(np.max(np.abs(ledger_balance(*cols, e0))))
             if not math.isnan(self.balance) and not worst <= self.balance:
                 self.balance = worst
         self._hand_on(self.handed, nfr, e0)
@@ -401,12 +403,13 @@ class EventRun:
         if u is not None:
             e0 = e0 * u.e
         for q in range(lo, hi):
-            t, (ke, pe, wc, wv) = ts[q - lo], es[q - lo]
+            t, (ke, pe, wc, wv, wd, ww, wb) = ts[q - lo], es[q - lo]
             x, v, f = xs[q], vs[q], fs[q]
             if u is not None:
                 t, x, v, f = t * u.t, x * u.x, v * u.v, f * u.f
                 ke, pe, wc, wv = ke * u.e, pe * u.e, wc * u.e, wv * u.e
-            record(Frame(self.frames, t, x, v, f, ke, pe, wc, wv, e0))
+                wd, ww, wb = wd * u.e, ww * u.e, wb * u.e
+            record(Frame(self.frames, t, x, v, f, ke, pe, wc, wv, e0, wd, ww, wb))
             self.frames += 1
 
     def restore(self, state: dict) -> None:

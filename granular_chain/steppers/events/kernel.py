@@ -64,6 +64,8 @@ from .modes import all_at_rest, is_moving, log_event, settle, spring_force, upda
 from .output import record_frame
 from .records import GOING
 from .roots import CENTRES_MEET, SWITCH_ON, contact_candidates, friction_candidates
+from .dissipation import (FORCE_CLOSE, FORCE_OPEN, TIME_EVENT, branch_cap, build_dissipative,
+                          dissipative_candidates, dissipative_increment, wall_rates, wall_series)
 from .series import build_series, horner, increment, ledger_increment, step_size
 
 #: Consecutive event batches in a vanishing time window that end a run as Zeno.
@@ -71,7 +73,7 @@ ZENO_BATCHES = 200
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def run_events(law, coulomb, viscous, settings_array, clock_array, model, state, work,
+def run_events(law, coulomb, viscous, dissip, settings_array, clock_array, model, state, work,
                frames, log):
     """Advance the event-driven motion until the run ends, a buffer fills or the
     call's work budget is spent.
@@ -80,6 +82,12 @@ def run_events(law, coulomb, viscous, settings_array, clock_array, model, state,
     ----------
     law, coulomb, viscous : int
         Compile-time feature codes (contact law, Coulomb and viscous friction present).
+    dissip : None or int
+        None: an elastic chain between fixed walls; an int (1): dashpots, body
+        forces or driven walls present (:mod:`.dissipation`). A type, not a
+        literal value, because numba prunes ``dissip is None`` branches in every
+        callee, inlined ones too, and a literal's branches only in the kernel
+        itself: the elastic kernels then hold none of the dissipative code.
     settings_array, clock_array : ndarray, shape (1,)
         :data:`~.records.SETTINGS_DTYPE` and :data:`~.records.CLOCK_DTYPE` records.
     model, state, work, frames, log
@@ -103,7 +111,7 @@ def run_events(law, coulomb, viscous, settings_array, clock_array, model, state,
     settings = settings_array[0]
     clock = clock_array[0]
     if clock.started == 0:
-        code = _start(law, settings, clock, model, state, work, frames, log)
+        code = _start(law, dissip, settings, clock, model, state, work, frames, log)
         if code != GOING:
             return code
     budget = settings.budget
@@ -116,14 +124,14 @@ def run_events(law, coulomb, viscous, settings_array, clock_array, model, state,
             if passes >= budget:
                 return Pause.CHUNK_DONE.value
             passes += 1
-        code, event, tau_e, ncand = _step(law, coulomb, viscous, settings, clock, model, state,
-                                          work, frames)
+        code, event, tau_e, ncand = _step(law, coulomb, viscous, dissip, settings, clock, model,
+                                          state, work, frames)
         if code != GOING:
             return code
         if event == 0:
             continue
-        code = _event_batch(law, tau_e, ncand, settings, clock, model, state, work, frames,
-                            log)
+        code = _event_batch(law, dissip, tau_e, ncand, settings, clock, model, state, work,
+                            frames, log)
         if code != GOING:
             return code
 
@@ -137,7 +145,7 @@ def _buffers_short(clock, state, frames, log):
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def _start(law, settings, clock, model, state, work, frames, log):
+def _start(law, dissip, settings, clock, model, state, work, frames, log):
     """The first call: settle the initial modes, build the moving set, record the
     first frame; the run may end at once (at rest, or the overdamped jump)."""
     N = state.u.size
@@ -146,6 +154,8 @@ def _start(law, settings, clock, model, state, work, frames, log):
     clock.started = 1
     work.window[0] = 0
     work.window[1] = N - 1
+    if dissip is not None:
+        wall_rates(clock.time, clock.time_lo, model, state)
     settle(law, clock.time, settings, clock, model, state, work, log)
     # The moving set (is_moving) is kept incrementally from here on.
     nm0 = 0
@@ -161,7 +171,7 @@ def _start(law, settings, clock, model, state, work, frames, log):
     clock.next_frame = 1
     if settings.stop_rest == 1 and all_at_rest(law, clock, model, state):
         return Status.AT_REST.value
-    if try_jump(law, settings, clock, model, state):
+    if dissip is None and try_jump(law, settings, clock, model, state):
         record_frame(law, clock.time, clock, model, state, frames, 0.0, 0.0)
         return Status.T_END.value
     return GOING
@@ -183,12 +193,13 @@ def _before_pass(law, settings, clock, model, state, frames, log):
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
-def _step(law, coulomb, viscous, settings, clock, model, state, work, frames):
+def _step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames):
     """One step in the current mode, closed-form (two granules, n = 2, contact
-    closed) or Taylor. Returns (code, event, tau_e, ncand) as :func:`taylor_step`."""
+    closed, no dashpot) or Taylor. Returns (code, event, tau_e, ncand) as
+    :func:`taylor_step`."""
     N = state.u.size
-    if (law == LAW_LINEAR and N == 2 and model.present[0] == 0 and model.present[2] == 0
-            and state.closed[1] == 1):
+    if (dissip is None and law == LAW_LINEAR and N == 2 and model.present[0] == 0
+            and model.present[2] == 0 and state.closed[1] == 1):
         if modal_n2.setup(work.modal[0], coulomb, viscous, model, state):
             for j in range(N + 1):
                 work.contact_flag[j] = 0
@@ -196,7 +207,7 @@ def _step(law, coulomb, viscous, settings, clock, model, state, work, frames):
                 work.granule_flag[i] = 0
             return modal_step(law, coulomb, viscous, settings, clock, model, state, work,
                               frames)
-    return taylor_step(law, coulomb, viscous, settings, clock, model, state, work, frames)
+    return taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames)
 
 
 @numba.njit(inline="always", cache=True, _nrt=False)
@@ -211,13 +222,21 @@ def _add_contacts(i, model, work, na):
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
-def _collect_active(nm, model, state, work):
+def _collect_active(dissip, nm, model, state, work):
     """The contacts of the moving set and the stuck granules they touch (and those
     granules' contacts), from the incrementally kept moving set: O(active), not
-    O(N). Returns (na, nc): ``work.active[:na]``, ``work.stuck[:nc]``."""
+    O(N); a moving wall's contact always. Returns (na, nc): ``work.active[:na]``,
+    ``work.stuck[:nc]``."""
     N = state.u.size
     na = 0
     nc = 0
+    if dissip is not None:
+        for side in range(2):
+            j = side * N
+            if model.wall_motion[side, 0] != 0.0 and model.present[j] == 1:
+                work.contact_flag[j] = 1
+                work.active[na] = j
+                na += 1
     for q in range(nm):
         na = _add_contacts(state.moving[q], model, work, na)
     na1 = na
@@ -239,7 +258,7 @@ def _collect_active(nm, model, state, work):
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
-def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, frames):
+def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames):
     """One Taylor step of the mode, to its first event or its step size.
 
     Returns (code, event, tau_e, ncand): code a Status (the run ended), a Pause
@@ -250,8 +269,8 @@ def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, fram
     P = settings.order
     t, tlo, t_end = clock.time, clock.time_lo, settings.t_end
     nm = clock.n_moving
-    na, nc = _collect_active(nm, model, state, work)
-    if nm == 0:
+    na, nc = _collect_active(dissip, nm, model, state, work)
+    if nm == 0 and na == 0:
         # Nothing moves and nothing can start moving: the state is final.
         record_frame(law, t_end, clock, model, state, frames, 0.0, 0.0)
         clock.jumped_from = t
@@ -262,8 +281,14 @@ def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, fram
     vscale = 0.0
     for q in range(nm):
         vscale = max(vscale, abs(state.v[state.moving[q]]))
+    if dissip is not None:  # a wall driven into granules at rest sets the speed scale
+        vscale = max(vscale, abs(state.wall_rate[0]), abs(state.wall_rate[1]))
     tol_v = settings.rtol * vscale + settings.atol
-    build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work)
+    if dissip is not None:
+        wall_series(P, t, tlo, model, work)
+        build_dissipative(law, coulomb, viscous, P, tol_v, nm, na, model, state, work)
+    else:
+        build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work)
     # n = 2: also h <= step_cap = 0.5/L, L a bound on the mode's eigenvalues: the
     # series of a decaying exponential e^(-L h) has terms up to e^(L h), and
     # keeping L h <= 1/2 keeps their cancellation below a factor 3.
@@ -271,9 +296,16 @@ def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, fram
     if settings.step_cap > 0.0:
         h = min(h, settings.step_cap)
     h = step_size(linear, P, settings.rtol, settings.atol, h, nm, na, state, work)
+    if dissip is not None:
+        if not linear:
+            h = branch_cap(h, na, model, work)
     if not (h > 0.0) or not math.isfinite(h):
         return Status.NONFINITE.value, 0, 0.0, 0
-    tau_e, ncand = contact_candidates(linear, P, h, tol_v, na, model, state, work)
+    if dissip is not None:
+        tau_e, ncand = dissipative_candidates(linear, P, h, tol_v, t, tlo, na, model, state,
+                                              work)
+    else:
+        tau_e, ncand = contact_candidates(linear, P, h, tol_v, na, model, state, work)
     if coulomb:
         tau_e, ncand = friction_candidates(P, h, settings.rtol, nm, nc, ncand, tau_e, model,
                                            state, work)
@@ -289,11 +321,12 @@ def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, fram
         t_new = t_end
         t_lo_new = 0.0
     if settings.frame_interval > 0.0:
-        code = _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, state,
-                               work, frames)
+        code = _frames_in_step(law, coulomb, viscous, dissip, t_new, na, settings, clock, model,
+                               state, work, frames)
         if code != GOING:
             return code, 0, 0.0, 0
-    if not _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state, work):
+    if not _advance(coulomb, viscous, dissip, P, tau, t_new, t_lo_new, na, clock, model, state,
+                    work):
         return Status.NONFINITE.value, 0, 0.0, 0
     if not event:
         if settings.every > 0 and clock.steps % settings.every == 0:
@@ -306,8 +339,8 @@ def taylor_step(law, coulomb, viscous, settings, clock, model, state, work, fram
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, state, work,
-                    frames):
+def _frames_in_step(law, coulomb, viscous, dissip, t_new, na, settings, clock, model, state,
+                    work, frames):
     """Frames at the output cadence inside the step, up to t_new, from the series.
     Returns Pause.LOG_FULL when the buffers are full (state untouched: the step is
     redone after they grow), else GOING."""
@@ -333,7 +366,10 @@ def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, st
             work.saved_overlap[j] = overlap[j]
             overlap[j] = horner(work.d_series[j], P, x)
         dwc, dwv = ledger_increment(coulomb, viscous, P, nm, model, state, work, x)
-        record_frame(law, tf, clock, model, state, frames, dwc, dwv)
+        if dissip is not None:
+            _dissipative_frame(law, tf, P, na, x, dwc, dwv, clock, model, state, work, frames)
+        else:
+            record_frame(law, tf, clock, model, state, frames, dwc, dwv)
         for q in range(nm):
             i = mov[q]
             u[i] = work.saved_u[i]
@@ -346,14 +382,20 @@ def _frames_in_step(law, coulomb, viscous, t_new, na, settings, clock, model, st
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
-def _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state, work):
+def _advance(coulomb, viscous, dissip, P, tau, t_new, t_lo_new, na, clock, model, state, work):
     """Take the state to the end of the step (tau from its start, time t_new +
-    t_lo_new) and add the friction work. False if the state turned non-finite."""
+    t_lo_new) and add the friction (and dashpot and wall) work. False if the
+    state turned non-finite."""
     nm = clock.n_moving
     u, v, overlap, mov = state.u, state.v, state.overlap, state.moving
     dwc, dwv = ledger_increment(coulomb, viscous, P, nm, model, state, work, tau)
     clock.work_coulomb += dwc
     clock.work_viscous += dwv
+    if dissip is not None:
+        dwd, dww = dissipative_increment(P, na, model, state, work, tau)
+        clock.work_contact += dwd
+        clock.work_wall += dww
+        wall_rates(t_new, t_lo_new, model, state)
     for q in range(nm):
         i = mov[q]
         u[i] = u[i] + increment(work.u_series[i], P, tau)
@@ -371,6 +413,24 @@ def _advance(coulomb, viscous, P, tau, t_new, t_lo_new, na, clock, model, state,
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
+def _dissipative_frame(law, tf, P, na, x, dwc, dwv, clock, model, state, work, frames):
+    """A frame inside a step (state already at x from the step's start) with the
+    dashpot and wall work up to it: the clock's totals are raised for the frame
+    and put back exactly (the step adds its whole increment at its end)."""
+    dwd, dww = dissipative_increment(P, na, model, state, work, x)
+    wd, ww = clock.work_contact, clock.work_wall
+    rl, rr = state.wall_rate[0], state.wall_rate[1]
+    clock.work_contact = wd + dwd
+    clock.work_wall = ww + dww
+    wall_rates(tf, 0.0, model, state)  # (the walls' dashpots in the frame's forces)
+    record_frame(law, tf, clock, model, state, frames, dwc, dwv)
+    clock.work_contact = wd
+    clock.work_wall = ww
+    state.wall_rate[0] = rl
+    state.wall_rate[1] = rr
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _apply_roots(law, limit, ncand, model, state, work):
     """Set the event quantities of every candidate with a root <= limit exactly
     (overlap 0, velocity 0, the slip's direction) and mark them for settle."""
@@ -381,6 +441,9 @@ def _apply_roots(law, limit, ncand, model, state, work):
             if kind == EventKind.CONTACT_OPEN or kind == EventKind.CONTACT_CLOSE:
                 state.overlap[i] = 0.0
                 work.contact_flag[i] = 2 if kind == EventKind.CONTACT_CLOSE else 3
+            elif kind == FORCE_OPEN or kind == FORCE_CLOSE:
+                # the overlap stays (positive): the total force is what reached zero
+                work.contact_flag[i] = 2 if kind == FORCE_CLOSE else 3
             elif kind == EventKind.STOP:
                 state.v[i] = 0.0
                 work.granule_flag[i] = 3
@@ -398,9 +461,10 @@ def _batch_window(limit, ncand, N, work):
     whi = -1
     for q in range(ncand):
         kind = work.cand_kind[q]
-        if work.cand_root[q] <= limit and kind >= 0:
+        if work.cand_root[q] <= limit and (kind >= 0 or kind == FORCE_OPEN
+                                             or kind == FORCE_CLOSE):
             c_ = work.cand_index[q]
-            if kind == EventKind.CONTACT_OPEN or kind == EventKind.CONTACT_CLOSE:
+            if kind < 0 or kind == EventKind.CONTACT_OPEN or kind == EventKind.CONTACT_CLOSE:
                 wlo = min(wlo, c_ - 2)
                 whi = max(whi, c_ + 1)
             else:
@@ -414,7 +478,7 @@ def _batch_window(limit, ncand, N, work):
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def _event_batch(law, tau_e, ncand, settings, clock, model, state, work, frames, log):
+def _event_batch(law, dissip, tau_e, ncand, settings, clock, model, state, work, frames, log):
     """The events of a step ending at its earliest root tau_e: roots of different
     event functions at one true instant agree to a few ulps of tau, so all
     within 16 ulps are processed together (simultaneous events). Then the modes
@@ -445,16 +509,19 @@ def _event_batch(law, tau_e, ncand, settings, clock, model, state, work, frames,
         if work.cand_root[q] <= limit:
             kind = work.cand_kind[q]
             if (kind == EventKind.CONTACT_OPEN or kind == EventKind.CONTACT_CLOSE
-                    or kind == SWITCH_ON):
+                    or kind == SWITCH_ON or kind == FORCE_OPEN or kind == FORCE_CLOSE):
                 work.contact_flag[work.cand_index[q]] = 0
+            elif kind == TIME_EVENT:
+                continue
             else:
                 work.granule_flag[work.cand_index[q]] = 0
-    return _after_batch(law, t_new, tau_e, nev_before, opened, settings, clock, model, state,
-                        frames)
+    return _after_batch(law, dissip, t_new, tau_e, nev_before, opened, settings, clock, model,
+                        state, frames)
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def _after_batch(law, t_new, tau_e, nev_before, opened, settings, clock, model, state, frames):
+def _after_batch(law, dissip, t_new, tau_e, nev_before, opened, settings, clock, model, state,
+                 frames):
     """The run's ends after an event batch: Zeno, separation, rest, the event
     limit, the overdamped jump. Returns a Status or GOING."""
     if tau_e == 0.0 and clock.n_events == nev_before:
@@ -489,7 +556,7 @@ def _after_batch(law, t_new, tau_e, nev_before, opened, settings, clock, model, 
         if not at_events:
             record_frame(law, t_new, clock, model, state, frames, 0.0, 0.0)
         return code
-    if try_jump(law, settings, clock, model, state):
+    if dissip is None and try_jump(law, settings, clock, model, state):
         record_frame(law, clock.time, clock, model, state, frames, 0.0, 0.0)
         return Status.T_END.value
     return GOING

@@ -15,21 +15,39 @@ a window around each batch, so steps and events cost O(active), not O(N).
 import numba
 
 from ...codes import EventKind
-from ...laws.contact import LAW_LINEAR, contact_force
+from ...laws.contact import LAW_LINEAR, contact_energy, contact_force
+from ...laws.damping import damped_contact_force, dashpot_force
+from ...laws.wall_motion import WALL_PULSE
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _contact_force(law, model, state, j):
-    """Force of contact j (0 when absent or open)."""
+    """Force of contact j, its dashpot's included (0 when absent or open)."""
     if model.present[j] == 0 or state.closed[j] == 0:
         return 0.0
+    if model.damping[j] != 0.0:
+        return damped_contact_force(law, model.dashpot[0], model.dashpot[1], state.overlap[j],
+                                    _rate(state, j), model.stiffness[j], model.exponent[j],
+                                    model.damping[j])
     return contact_force(law, state.overlap[j], model.stiffness[j], model.exponent[j])
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
+def _rate(state, j):
+    """d(delta_j)/dt now (the walls' velocities at the ends)."""
+    N = state.v.size
+    vl = state.v[j - 1] if j >= 1 else state.wall_rate[0]
+    vr = state.v[j] if j < N else state.wall_rate[1]
+    return vl - vr
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def spring_force(law, model, state, i, skip):
-    """Net contact force on granule i (contact ``skip`` left out; -5: none)."""
+    """Net contact force on granule i (contact ``skip`` left out; -5: none), plus
+    its body force."""
     f = 0.0
+    if model.body[i] != 0.0:
+        f = model.body[i]
     if skip != i:
         f += _contact_force(law, model, state, i)
     if skip != i + 1:
@@ -85,22 +103,43 @@ def initial_friction_modes(model, state):
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
+def _force_mode(law, j, model, state):
+    """Mode of a non-tensile contact of positive overlap: closed while its total force
+    (spring + dashpot) pushes; a force within 64 ulps of its parts (a zero just
+    located) keeps the mode."""
+    d, k, n, c = state.overlap[j], model.stiffness[j], model.exponent[j], model.damping[j]
+    w = _rate(state, j)
+    spring = contact_force(law, d, k, n)
+    dash = dashpot_force(law, model.dashpot[0], d, w, k, n, c)
+    f = spring + dash
+    if abs(f) <= 64.0 * 2.2e-16 * (abs(spring) + abs(dash)):
+        return state.closed[j]
+    return 1 if f > 0.0 else 0
+
+
+@numba.njit(cache=True, error_model="numpy", _nrt=False)
 def _contact_mode(law, j, model, state, work):
     """The mode contact j must have now (1 closed, 0 open)."""
     N = state.v.size
     d = state.overlap[j]
     forced = work.contact_flag[j]
-    if d == 0.0 and forced >= 2:
+    if forced >= 2 and (d == 0.0 or (model.damping[j] != 0.0 and model.dashpot[1] == 0)):
         # closed or opened by a located root: the root's direction (from the
         # series) decides, not a roundoff-level derivative.
         return 1 if forced == 2 else 0
     if d > 0.0:
+        if model.damping[j] != 0.0 and model.dashpot[1] == 0:
+            return _force_mode(law, j, model, state)
         return 1
     if d < 0.0:
         return 0
     vl = state.v[j - 1] if j >= 1 else 0.0
     vr = state.v[j] if j < N else 0.0
     w = vl - vr
+    if j == 0:
+        w += state.wall_rate[0]
+    elif j == N:
+        w -= state.wall_rate[1]
     if w > 0.0:
         return 1
     if w < 0.0:
@@ -231,6 +270,11 @@ def settle(law, t, settings, clock, model, state, work, log):
     opened = 0
     for j in range(lo, hi + 2):
         if closed[j] != old_c[j]:
+            if model.damping[j] != 0.0 and state.overlap[j] > 0.0:
+                # a non-tensile contact opening (closing) at overlap > 0: its spring's
+                # energy leaves (enters) the elastic energy, which counts closed contacts
+                e = contact_energy(law, state.overlap[j], model.stiffness[j], model.exponent[j])
+                clock.work_contact += e if closed[j] == 0 else -e
             kind = EventKind.CONTACT_CLOSE if closed[j] == 1 else EventKind.CONTACT_OPEN
             log_event(t, kind, j - 1, clock, log)
             if j == settings.watch:
@@ -259,7 +303,7 @@ def is_moving(i, state, model):
         return 1
     if s == 0:
         return 0
-    if state.v[i] != 0.0:
+    if state.v[i] != 0.0 or model.body[i] != 0.0:
         return 1
     if model.present[i] == 1 and state.closed[i] == 1:
         return 1
@@ -293,6 +337,11 @@ def update_moving_set(lo, hi, clock, model, state):
 def all_at_rest(law, clock, model, state):
     """Every granule at rest for good. Granules outside the moving set are stuck
     (v = 0 exactly): only the moving set needs a look."""
+    for side in range(2):
+        # a wall that moves (or will: a sine at a turning point) can set them going
+        kind = model.wall_motion[side, 0]
+        if kind != 0.0 and (kind != WALL_PULSE or state.wall_rate[side] != 0.0):
+            return False
     for q in range(clock.n_moving):
         i = state.moving[q]
         if state.v[i] != 0.0:

@@ -3,6 +3,8 @@
 import numba
 
 from ...laws.contact import contact_energy, contact_force
+from ...laws.damping import damped_contact_force
+from .modes import _rate
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
@@ -10,7 +12,9 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
     """Append the frame of the current state at time ``t`` to ``frames``.
 
     ``work_coulomb``, ``work_viscous``: friction work since the clock's totals
-    (a frame inside a step, before the step's work is added), else 0.
+    (a frame inside a step, before the step's work is added), else 0. Columns of
+    ``frames.e``: kinetic, elastic, Coulomb, viscous, dashpot work, wall work,
+    body work (sum_i f_i u_i).
     """
     N = state.u.size
     u, v, overlap = state.u, state.v, state.overlap
@@ -26,7 +30,16 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
     for j in range(N + 1):
         if model.present[j] == 0:
             continue
-        c = contact_force(law, overlap[j], model.stiffness[j], model.exponent[j])
+        if model.damping[j] != 0.0:
+            # with a dashpot the elastic energy is that of closed contacts (a
+            # non-tensile one opens at overlap > 0) and the force the total one
+            if state.closed[j] == 0:
+                continue
+            c = damped_contact_force(law, model.dashpot[0], model.dashpot[1], overlap[j],
+                                     _rate(state, j), model.stiffness[j], model.exponent[j],
+                                     model.damping[j])
+        else:
+            c = contact_force(law, overlap[j], model.stiffness[j], model.exponent[j])
         pe += contact_energy(law, overlap[j], model.stiffness[j], model.exponent[j])
         if j >= 1:
             frames.f[k, j - 1] -= c
@@ -36,6 +49,13 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
     frames.e[k, 1] = pe
     frames.e[k, 2] = clock.work_coulomb + work_coulomb
     frames.e[k, 3] = clock.work_viscous + work_viscous
+    frames.e[k, 4] = clock.work_contact
+    frames.e[k, 5] = clock.work_wall
+    body = 0.0
+    for i in range(N):
+        if model.body[i] != 0.0:
+            body += model.body[i] * u[i]
+    frames.e[k, 6] = body
     clock.n_frames = k + 1
 
 

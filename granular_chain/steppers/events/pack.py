@@ -10,6 +10,7 @@ import numba
 import numpy as np
 
 from ..._compile import specialised
+from ...laws.damping import DAMPING_NONE, DAMPING_VISCOELASTIC
 from ...model import LAW_LINEAR, Model
 from .kernel import run_events
 from .modes import initial_friction_modes
@@ -40,6 +41,7 @@ class Packed:
     law: int
     coulomb: int
     viscous: int
+    dissip: int  #: 1: dashpots, body forces or driven walls compiled in (:func:`dissipative`)
     options: EventOptions  #: kernel units
     ke0: float  #: initial kinetic energy
     #: (steps still needed at the pace reached, that pace) when the run stopped
@@ -63,19 +65,22 @@ class Packed:
 
     def with_records(self, records: EventRecords) -> "Packed":
         """A copy holding other records (another run of the same packing)."""
-        return Packed(records, self.kernel, self.law, self.coulomb, self.viscous, self.options,
-                      self.ke0, self.projection, self.out_of_steps)
+        return Packed(records, self.kernel, self.law, self.coulomb, self.viscous, self.dissip,
+                      self.options, self.ke0, self.projection, self.out_of_steps)
 
     def call(self) -> int:
         """Run the kernel on the records (until it returns a Status or a Pause)."""
-        return self.kernel(self.law, self.coulomb, self.viscous, *self.records)
+        return self.kernel(self.law, self.coulomb, self.viscous, dissipative_arg(self.dissip),
+                           *self.records)
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def linear_step_cap(model):
     """n = 2: largest step, LINEAR_STEP / L with L a bound on the eigenvalues of
     any linear mode: drag rate plus twice the fastest contact frequency (a
-    chain's highest mode is 2 sqrt(k/m)). 0 (no cap) when L = 0."""
+    chain's highest mode is 2 sqrt(k/m)) plus four times the fastest dashpot
+    rate c/m (a dashpot between two granules pulls both: rate 2c/m each side).
+    0 (no cap) when L = 0."""
     kmax = 0.0
     first = True
     for j in range(model.present.size):
@@ -93,6 +98,14 @@ def linear_step_cap(model):
         if i == 0 or im > imax:
             imax = im
     L = drag + 2.0 * math.sqrt(kmax * imax)
+    cmax = 0.0
+    for j in range(model.present.size):
+        if model.present[j] == 1 and model.damping[j] > cmax:
+            cmax = model.damping[j]
+    if cmax > 0.0:
+        # (viscoelastic n = 2: the dashpot is A k, a rate A k / m)
+        c_eff = cmax * kmax if model.dashpot[0] == DAMPING_VISCOELASTIC else cmax
+        L += 4.0 * c_eff * imax
     return LINEAR_STEP / L if L > 0 else 0.0
 
 
@@ -115,6 +128,33 @@ def _contacts(model: Model):
         present[N] = 1
         overlap[N], stiffness[N], exponent[N] = w[3], w[4], w[5]
     return present, overlap, stiffness, exponent
+
+
+def dissipative(model: Model) -> int:
+    """1 when the scene has dashpots, body forces or a driven wall (their code is
+    compiled in; their kinds, tensile and the wall motion are runtime values), 0
+    for an elastic chain between fixed walls (the code is left out and the
+    kernels compute what the frictionless and friction cases did, bit for bit).
+    The kernel receives it as :func:`dissipative_arg`."""
+    return 0 if model.features.elastic_and_fixed else 1
+
+
+def dissipative_arg(dissip: int):
+    """The kernel's ``dissip`` argument: None (elastic, fixed walls) or 1."""
+    return 1 if dissip else None
+
+
+def _dissipation_arrays(model: Model):
+    """damping (N + 1,), dashpot (2,), body (N,), wall_motion (2, 3) of ChainArrays."""
+    N = model.count
+    feat = model.features
+    damping = np.zeros(N + 1)
+    if feat.damping != DAMPING_NONE:
+        damping[1:N] = model.damping
+        damping[0], damping[N] = model.wall_damping[0], model.wall_damping[1]
+    dashpot = np.array([int(feat.damping), int(bool(feat.tensile))], dtype=np.int64)
+    return (damping, dashpot, np.ascontiguousarray(model.body_force, dtype=np.float64),
+            np.ascontiguousarray(model.wall_motion, dtype=np.float64))
 
 
 def _overlap_limits(model: Model) -> np.ndarray:
@@ -152,7 +192,9 @@ def _workspace(N: int, P: int) -> Workspace:
     i8, i64 = np.int8, np.int64
     return Workspace(
         u_series=np.zeros((N, P + 1)), v_series=np.zeros((N, P + 1)),
-        d_series=np.zeros((N + 1, P + 1)), f_series=np.zeros((N + 1, P + 1)),
+        d_series=np.zeros((N + 1, P + 2)), f_series=np.zeros((N + 1, P + 1)),
+        s_series=np.zeros((N + 1, P + 2)), g_series=np.zeros((N + 1, P + 1)),
+        wall_series=np.zeros((2, P + 2)),
         row=np.zeros(max(P + 1, N + 1)), force_on=np.zeros(N + 1), saved_u=np.zeros(N),
         saved_v=np.zeros(N), saved_overlap=np.zeros(N + 1), active=np.zeros(N + 1, i64),
         stuck=np.zeros(N, i64), contact_flag=np.zeros(N + 1, i8), granule_flag=np.zeros(N, i8),
@@ -164,7 +206,7 @@ def _workspace(N: int, P: int) -> Workspace:
 def frame_buffers(rows: int, N: int) -> FrameBuffers:
     """Empty frame buffers of ``rows`` frames."""
     return FrameBuffers(t=np.zeros(rows), x=np.zeros((rows, N)), v=np.zeros((rows, N)),
-                        f=np.zeros((rows, N)), e=np.zeros((rows, 4)))
+                        f=np.zeros((rows, N)), e=np.zeros((rows, 7)))
 
 
 def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packed:
@@ -179,16 +221,18 @@ def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packe
     linear = law == LAW_LINEAR
     settings = _settings(options, N, linear)
     present, overlap, stiffness, exponent = _contacts(model)
+    damping, dashpot, body, wall_motion = _dissipation_arrays(model)
     chain = ChainArrays(x0=model.x0, present=present, stiffness=stiffness, exponent=exponent,
                         mass=model.mass, eta=model.eta, eta_static=model.eta_static,
                         gamma=model.gamma, overlap_limit=_overlap_limits(model),
-                        has_coulomb=np.zeros(N, dtype=np.int8))
+                        has_coulomb=np.zeros(N, dtype=np.int8), damping=damping,
+                        dashpot=dashpot, body=body, wall_motion=wall_motion)
     v = model.v0.copy()
     state = MotionState(u=np.zeros(N), v=v, overlap=overlap,
                         closed=((overlap > 0) & (present == 1)).astype(np.int8),
                         slide=np.zeros(N, dtype=np.int8), moving=np.zeros(N, dtype=np.int64),
                         is_moving=np.zeros(N, dtype=np.int8),
-                        moving_pos=np.zeros(N, dtype=np.int64))
+                        moving_pos=np.zeros(N, dtype=np.int64), wall_rate=np.zeros(2))
     initial_friction_modes(chain, state)
     clock = np.zeros(1, CLOCK_DTYPE)
     clock["last_event"] = -math.inf
@@ -205,8 +249,9 @@ def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packe
                    index=np.zeros(ecap, dtype=np.int64), counts=np.zeros(4, dtype=np.int64))
     records = EventRecords(settings, clock, chain, state,
                            _workspace(N, int(settings["order"][0])), frame_buffers(fcap, N), log)
-    kernel = specialised(run_events, (law, int(feat.coulomb), int(feat.viscous)) + records,
-                         (0, 1, 2))
+    dissip = dissipative(model)
+    kernel = specialised(run_events, (law, int(feat.coulomb), int(feat.viscous),
+                                      dissipative_arg(dissip)) + records, (0, 1, 2))
     ke0 = 0.5 * float(np.dot(model.mass, v * v))
     return Packed(records=records, kernel=kernel, law=law, coulomb=int(feat.coulomb),
-                  viscous=int(feat.viscous), options=options, ke0=ke0)
+                  viscous=int(feat.viscous), dissip=dissip, options=options, ke0=ke0)

@@ -60,6 +60,8 @@ CLOCK_DTYPE = np.dtype([
     ("time_lo", np.float64),       # low part: t += h rounds with a bias over thousands of steps
     ("work_coulomb", np.float64),  # energy dissipated by Coulomb friction so far
     ("work_viscous", np.float64),  # energy dissipated by viscous friction so far
+    ("work_contact", np.float64),  # energy dissipated by the contacts' dashpots so far
+    ("work_wall", np.float64),     # work done on the chain by moving walls so far
     ("last_event", np.float64),    # time of the last event batch (Zeno test)
     ("jumped_from", np.float64),   # time from which the state was moved to t_end in closed form
     ("steps", np.int64),           # steps taken (Taylor or closed-form)
@@ -89,6 +91,10 @@ class ChainArrays(NamedTuple):
     gamma: np.ndarray          #: (N,) viscous coefficient
     overlap_limit: np.ndarray  #: (N + 1,) overlap at which the centres meet
     has_coulomb: np.ndarray    #: (N,) int8, 1 where the granule has a static threshold
+    damping: np.ndarray        #: (N + 1,) dashpot coefficient of each contact (c, or A); 0: none
+    dashpot: np.ndarray        #: (2,) int64: dashpot law (laws.damping code), tensile (0/1)
+    body: np.ndarray           #: (N,) body force on each granule (force)
+    wall_motion: np.ndarray    #: (2, 3) (kind, p1, p2) of the left and right wall (laws.wall_motion)
 
 
 class MotionState(NamedTuple):
@@ -102,6 +108,7 @@ class MotionState(NamedTuple):
     moving: np.ndarray      #: (N,) int64, moving[:clock.n_moving] the moving set
     is_moving: np.ndarray   #: (N,) int8 membership of the moving set
     moving_pos: np.ndarray  #: (N,) int64 place of a member in ``moving``
+    wall_rate: np.ndarray   #: (2,) the walls' velocities s_L', s_R' now (0: fixed walls)
 
 
 class Workspace(NamedTuple):
@@ -110,8 +117,11 @@ class Workspace(NamedTuple):
 
     u_series: np.ndarray        #: (N, P + 1) Taylor coefficients of u
     v_series: np.ndarray        #: (N, P + 1) of v
-    d_series: np.ndarray        #: (N + 1, P + 1) of the overlaps
-    f_series: np.ndarray        #: (N + 1, P + 1) of the contact forces
+    d_series: np.ndarray        #: (N + 1, P + 2) of the overlaps (column P + 1: dashpots only)
+    f_series: np.ndarray        #: (N + 1, P + 1) of the contact forces (applied)
+    s_series: np.ndarray        #: (N + 1, P + 2) of the springs' forces (dashpots only)
+    g_series: np.ndarray        #: (N + 1, P + 1) of spring + dashpot, applied or not (dashpots only)
+    wall_series: np.ndarray     #: (2, P + 2) of the walls' displacements s_L, s_R (driven walls)
     row: np.ndarray             #: (max(P + 1, N + 1),) one series (stop/slip functions)
     force_on: np.ndarray        #: (N + 1,) 1.0 where a closed contact's force is switched on
     saved_u: np.ndarray         #: (N,) state kept while a frame inside the step is recorded
@@ -137,7 +147,8 @@ class FrameBuffers(NamedTuple):
     x: np.ndarray  #: (F, N) centre positions
     v: np.ndarray  #: (F, N)
     f: np.ndarray  #: (F, N) net contact force on each granule
-    e: np.ndarray  #: (F, 4) kinetic, elastic, Coulomb work, viscous work
+    e: np.ndarray  #: (F, 7) kinetic, elastic, Coulomb work, viscous work, dashpot work,
+                   #: wall work, body work
 
 
 class EventLog(NamedTuple):
@@ -151,7 +162,7 @@ class EventLog(NamedTuple):
 
 class EventRecords(NamedTuple):
     """Everything the kernel takes, in the order :func:`~.kernel.run_events` takes it
-    after its three compile-time feature codes."""
+    after its four compile-time feature codes."""
 
     settings: np.ndarray  #: (1,) SETTINGS_DTYPE
     clock: np.ndarray     #: (1,) CLOCK_DTYPE

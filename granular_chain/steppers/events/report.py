@@ -37,8 +37,9 @@ def build_result(packed: Packed, code, wall, model: Model, tscale: float, run=No
         status, message = Status.MAX_STEPS, _out_of_steps_message(packed, t_final, tscale)
     else:
         status, message = _status(code, packed, clock, model, t_final * tscale, nev, tscale)
-    tol = ledger_tolerance(packed, e0, float(fr_e[nfr - 1, 2] + fr_e[nfr - 1, 3]),
-                           clock, settings)
+    work = float(fr_e[nfr - 1, 2] + fr_e[nfr - 1, 3] + fr_e[nfr - 1, 4]
+                 + abs(fr_e[nfr - 1, 5]) + abs(fr_e[nfr - 1, 6]))
+    tol = ledger_tolerance(packed, e0, work, clock, settings)
     events = [Event(float(ev_t[q]), EVENT_KINDS[int(ev_k[q])], int(ev_i[q])) for q in range(nev)]
     info = {"features": feat.describe(), "granules": model.count, "units": model.units,
             "event_stepper": {"taylor_order": int(settings.order),
@@ -52,7 +53,8 @@ def build_result(packed: Packed, code, wall, model: Model, tscale: float, run=No
     if run is None:
         energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),
                               coulomb=fr_e[:nfr, 2].copy(), viscous=fr_e[:nfr, 3].copy(),
-                              initial=e0)
+                              initial=e0, contact_dissipated=fr_e[:nfr, 4].copy(),
+                              wall_work=fr_e[:nfr, 5].copy(), body_work=fr_e[:nfr, 6].copy())
         t, x, vv, f = fr_t[:nfr].copy(), fr_x[:nfr].copy(), fr_v[:nfr].copy(), fr_f[:nfr].copy()
         judged = energy
     else:
@@ -83,7 +85,9 @@ def _logged_frames(run, info: dict):
     energy = EnergyLedger(
         kinetic=log.array("kinetic"), potential=log.array("potential"),
         coulomb=log.array("coulomb"), viscous=log.array("viscous"), initial=e0,
-        streamed_error=None if whole else log.max_balance_error)
+        streamed_error=None if whole else log.max_balance_error,
+        contact_dissipated=log.array("contact_dissipated"), wall_work=log.array("wall_work"),
+        body_work=log.array("body_work"))
     if not log.keep:
         info["frames"] = log.count
         info["frames_kept"] = "first and last (the others were streamed to the writers)"

@@ -248,6 +248,8 @@ def friction_candidates(P, h, rtol, nm, nc, ncand, tau_e, model, state, work):
         i = work.stuck[q]
         for k in range(P + 1):
             Q[k] = Fc[i, k] - Fc[i + 1, k]
+        if model.body[i] != 0.0:
+            Q[0] += model.body[i]
         r = min(first_root(Q, P, 1.0, eta_s[i], h), first_root(Q, P, -1.0, eta_s[i], h))
         ncand = _add(work, ncand, EventKind.SLIP, i, r)
         tau_e = min(tau_e, r)
