@@ -244,7 +244,7 @@ def scaled_wall_motion(motion: np.ndarray, A: float, B: float) -> np.ndarray:
     ----------
     motion : numpy.ndarray
         Shape (2, 3): rows left, right wall; columns kind code, p1, p2 in
-        scene units (speed; amplitude and angular frequency; speed and duration).
+        scene units (speed; amplitude and frequency; speed and duration).
     A : float
         Length scale, scene units of length.
     B : float
