@@ -453,7 +453,23 @@ def forced_chunk(features, chain, timestep, state, call, forcing, fstate):
 @numba.njit(cache=True)
 def forced_start(features, state, forcing, fstate, t):
     """The contact state (into fstate) and net forces (into state.f) of
-    (state.u, state.v) at time t."""
+    (state.u, state.v) at time t.
+
+    Parameters
+    ----------
+    features : ForcedFeatures
+        Compile-time codes.
+    state : State
+        The kernel's state (:mod:`.records`); ``state.f`` (shape (N,), units of
+        force of the model) is written.
+    forcing : Forcing
+        Runtime constants; per-contact arrays of shape (N+1,), left wall first.
+    fstate : ForcedState
+        Contact state, written: overlaps, spring forces and dashpot primitives of
+        the contacts, units of the model.
+    t : float
+        Time of the state, units of time of the model (sets the walls' places).
+    """
     u, law = state.u, features.law
     s = wall_positions(forcing, t)
     for c in range(forcing.ends[0], forcing.ends[1] + 1):
