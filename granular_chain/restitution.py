@@ -59,7 +59,8 @@ class Restitution:
     Attributes
     ----------
     e : float or mpmath.mpf
-        Restitution coefficient ``-xi'(t_c)/v`` (0 when the contact never ends).
+        Restitution coefficient ``-xi'(t_c)/v``, dimensionless (0 when the contact
+        never ends).
     contact_time : float or mpmath.mpf
         Contact duration ``t_c`` (s); ``inf`` when the contact never ends.
     ended : bool
@@ -176,7 +177,7 @@ def choose_damping(e, k, m_eff, tensile=False) -> float:
     Parameters
     ----------
     e : float
-        Target restitution, ``0 < e <= 1`` (``e = 1`` gives ``c = 0``).
+        Target restitution, dimensionless, ``0 < e <= 1`` (``e = 1`` gives ``c = 0``).
     k, m_eff : float
         Stiffness (N/m) and reduced mass (kg).
     tensile : bool

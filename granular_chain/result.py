@@ -74,7 +74,8 @@ class EnergyLedger:
     contact_dissipated : ndarray
         Energy dissipated so far by the contacts' dashpots (>= 0; zeros when elastic).
     wall_work : ndarray
-        Work done on the chain so far by moving walls (either sign; zeros when fixed).
+        Work done on the chain so far by moving walls (either sign; zeros when fixed),
+        units of energy.
     body_work : ndarray
         Work done on the chain so far by body forces, sum_i f_i u_i (either sign).
     """

@@ -136,8 +136,8 @@ class StepPlan:
     steps : int
         Whole steps of ``dt`` (``steps * dt`` <= t_end).
     last_dt : float
-        A final shorter step ending at t_end, or 0 when ``steps * dt`` is t_end
-        to within 1e-9 dt.
+        A final shorter step ending at t_end (scene's time unit), or 0 when
+        ``steps * dt`` is t_end to within 1e-9 dt.
     every : int
         Steps between frames.
     note : str

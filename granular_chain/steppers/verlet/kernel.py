@@ -479,13 +479,14 @@ def synchronise(v, f, eta, eta_s, inv_m, h, vs):
     Parameters
     ----------
     v, f : ndarray, shape (N,)
-        Half-step velocities v(t - dt/2) after the last kick and net spring forces at t.
+        Half-step velocities v(t - dt/2) after the last kick and net spring forces at t,
+        units of the model.
     eta, eta_s, inv_m : ndarray, shape (N,)
-        Kinetic friction force, static threshold, 1/mass.
+        Kinetic friction force, static threshold (force), 1/mass, units of the model.
     h : float
-        dt/2.
+        dt/2, units of time of the model.
     vs : ndarray, shape (N,)
-        Out: velocities at t.
+        Out: velocities at t, units of speed of the model.
 
     Returns
     -------
