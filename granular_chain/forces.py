@@ -61,7 +61,23 @@ def right_wall_force(law, walls, u_last):
 
 @numba.njit(inline="always", cache=True)
 def wall_forces(law, left_wall, right_wall, u, walls):
-    """Forces of the walls on granule 0 (to the right) and granule N-1 (to the left, >= 0)."""
+    """Forces of the walls on granule 0 (to the right) and granule N-1 (to the left, >= 0).
+
+    Parameters
+    ----------
+    law, left_wall, right_wall : int
+        Compile-time feature codes (contact law; 1 when that wall is present).
+    u : numpy.ndarray
+        Shape (N,): displacements from the initial positions, scene units of length.
+    walls : numpy.ndarray
+        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+
+    Returns
+    -------
+    tuple of float
+        ``(fl, fr)``: push of the left wall on granule 0 and of the right wall on
+        granule N-1 (each >= 0, 0 without that wall), scene units of force.
+    """
     fl = 0.0
     fr = 0.0
     if left_wall:
@@ -80,15 +96,17 @@ def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
     law, left_wall, right_wall : int
         Compile-time feature codes.
     u : ndarray, shape (N,)
-        Displacements from the initial positions.
+        Displacements from the initial positions, scene units of length.
     d0, k, n : ndarray, shape (N-1,)
-        Initial overlaps, force coefficients, exponents of the contacts.
+        Initial overlaps (length), force coefficients (force / length^(n-1)),
+        exponents (dimensionless) of the contacts, scene units.
     walls : ndarray, shape (6,)
-        (d0, k, n) of the left then right wall contact.
+        (d0, k, n) of the left then right wall contact, scene units.
     c : ndarray, shape (N-1,)
-        Output: compressive force of each contact (>= 0).
+        Output: compressive force of each contact (>= 0), scene units of force.
     f : ndarray, shape (N,)
-        Output: net spring force on each granule (positive to the right).
+        Output: net spring force on each granule (positive to the right),
+        scene units of force.
     """
     N = u.size
     contact_forces(law, u, d0, k, n, c)
@@ -104,7 +122,25 @@ def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
 
 @numba.njit(inline="always", cache=True)
 def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
-    """Total elastic energy stored in the contacts and walls (sum of V(delta))."""
+    """Total elastic energy stored in the contacts and walls (sum of V(delta)).
+
+    Parameters
+    ----------
+    law, left_wall, right_wall : int
+        Compile-time feature codes (contact law; 1 when that wall is present).
+    u : numpy.ndarray
+        Shape (N,): displacements from the initial positions, scene units of length.
+    d0, k, n : numpy.ndarray
+        Shape (N-1,) each: initial overlaps (length), force coefficients
+        (force / length^(n-1)) and exponents (dimensionless) of the contacts, scene units.
+    walls : numpy.ndarray
+        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+
+    Returns
+    -------
+    float
+        Sum of V(delta) over contacts and walls, scene units of energy.
+    """
     N = u.size
     e = 0.0
     for i in range(N - 1):
@@ -118,7 +154,25 @@ def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
 
 @numba.njit(cache=True)
 def total_potential(law, left_wall, right_wall, u, d0, k, n, walls):
-    """Compiled entry point for :func:`potential_energy` (called at output frames)."""
+    """Compiled entry point for :func:`potential_energy` (called at output frames).
+
+    Parameters
+    ----------
+    law, left_wall, right_wall : int
+        Compile-time feature codes (contact law; 1 when that wall is present).
+    u : numpy.ndarray
+        Shape (N,): displacements from the initial positions, scene units of length.
+    d0, k, n : numpy.ndarray
+        Shape (N-1,) each: initial overlaps (length), force coefficients
+        (force / length^(n-1)) and exponents (dimensionless) of the contacts, scene units.
+    walls : numpy.ndarray
+        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+
+    Returns
+    -------
+    float
+        Sum of V(delta) over contacts and walls, scene units of energy.
+    """
     law = numba.literally(law)
     left_wall = numba.literally(left_wall)
     right_wall = numba.literally(right_wall)
@@ -127,7 +181,25 @@ def total_potential(law, left_wall, right_wall, u, d0, k, n, walls):
 
 @numba.njit(cache=True)
 def net_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
-    """Compiled entry point for :func:`spring_forces` (initial forces, writers)."""
+    """Compiled entry point for :func:`spring_forces` (initial forces, writers).
+
+    Parameters
+    ----------
+    law, left_wall, right_wall : int
+        Compile-time feature codes (contact law; 1 when that wall is present).
+    u : numpy.ndarray
+        Shape (N,): displacements from the initial positions, scene units of length.
+    d0, k, n : numpy.ndarray
+        Shape (N-1,) each: initial overlaps (length), force coefficients
+        (force / length^(n-1)) and exponents (dimensionless) of the contacts, scene units.
+    walls : numpy.ndarray
+        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+    c : numpy.ndarray
+        Shape (N-1,), output: compressive force of each contact (>= 0), scene units.
+    f : numpy.ndarray
+        Shape (N,), output: net spring force on each granule (positive to the
+        right), scene units of force.
+    """
     law = numba.literally(law)
     left_wall = numba.literally(left_wall)
     right_wall = numba.literally(right_wall)

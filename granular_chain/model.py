@@ -75,6 +75,13 @@ class Features:
         return self.damping == DAMPING_NONE and not self.body_force and not self.driven
 
     def describe(self) -> dict:
+        """The features as a JSON-ready dict of names (law, damping) and flags.
+
+        Returns
+        -------
+        dict
+            ``law``, ``damping`` as words; the booleans as they are.
+        """
         return {
             "law": {LAW_LINEAR: "linear (n=2)", LAW_HERTZ: "hertz (n=5/2)",
                     LAW_POWER: "power"}[self.law],
@@ -96,30 +103,43 @@ class Model:
     Attributes
     ----------
     mass, inv_mass, radius : ndarray, shape (N,)
-        Masses m_i, 1/m_i and radii r_i.
+        Masses m_i, 1/m_i and radii r_i, scene units (mass, 1/mass, length).
     x0 : ndarray, shape (N,)
-        Initial centre positions X_i (granule 0 centred at its radius).
+        Initial centre positions X_i (granule 0 centred at its radius), scene
+        units of length.
     v0 : ndarray, shape (N,)
-        Initial velocities.
+        Initial velocities, scene units of speed.
     d0 : ndarray, shape (N-1,)
-        Initial overlaps of the contacts (negative = open gap).
+        Initial overlaps of the contacts (negative = open gap), scene units of length.
     k, n : ndarray, shape (N-1,)
-        Force coefficient and potential exponent of each contact: force k*delta^(n-1).
+        Force coefficient (force / length^(n-1), scene units) and potential
+        exponent (dimensionless) of each contact: force k*delta^(n-1).
     walls : ndarray, shape (6,)
-        (d0, k, n) of the left wall contact then the right one (zeros if absent).
+        (d0, k, n) of the left wall contact then the right one (zeros if absent),
+        scene units.
     eta, eta_static, gamma : ndarray, shape (N,)
-        Kinetic friction force, static threshold (>= eta) and viscous coefficient.
+        Kinetic friction force, static threshold (>= eta), both force, and
+        viscous coefficient (force / speed), scene units.
     features : Features
+        The compiled building blocks the scene needs.
+    units : str
+        The scene's ``units``: "scaled" or "physical" (SI).
+    name : str
+        The scene's name (file stems, titles).
+    extras : dict
+        Free-form data attached to the Model (empty by default; not read by the engine).
     damping : ndarray, shape (N-1,)
         Dashpot coefficient of each contact: c (force/speed) or A (time) by
         ``features.damping`` (zeros when undamped).
     wall_damping : ndarray, shape (2,)
-        Dashpot coefficient of the left and right wall contacts.
+        Dashpot coefficient of the left and right wall contacts, units as
+        ``damping``.
     body_force : ndarray, shape (N,)
-        Force on each granule along +x (gravity m_i g direction, or given).
+        Force on each granule along +x (gravity m_i g direction, or given),
+        scene units of force.
     wall_motion : ndarray, shape (2, 3)
         (kind, p1, p2) of the left and right wall
-        (:mod:`granular_chain.laws.wall_motion`; zeros: fixed).
+        (:mod:`granular_chain.laws.wall_motion`; zeros: fixed), scene units.
     """
 
     mass: np.ndarray
@@ -154,10 +174,24 @@ class Model:
 
     @property
     def count(self) -> int:
+        """Number of granules N."""
         return self.mass.size
 
     def energies(self, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
-        """Kinetic and elastic energy of the state (u, v), shapes (N,)."""
+        """Kinetic and elastic energy of the state (u, v), shapes (N,).
+
+        Parameters
+        ----------
+        u : numpy.ndarray
+            Shape (N,): displacements from ``x0``, scene units of length.
+        v : numpy.ndarray
+            Shape (N,): velocities, scene units of speed.
+
+        Returns
+        -------
+        tuple of float
+            ``(kinetic, elastic)``, scene units of energy.
+        """
         feat = self.features
         args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, self.d0, self.k,
                 self.n, self.walls)
@@ -174,6 +208,11 @@ class Model:
         fixed period; the duration of a collision at the largest relative speed
         in the scene, t_c ~ 3.2 (mu^2 / (k^2 v))^(1/(n)) scaled form, is used
         (paper Appendix A: time scale B = (m v^2/k)^(1/n) / v).
+
+        Returns
+        -------
+        float
+            Period in scene units of time (``inf`` without any contact).
         """
         vmax = float(np.max(np.abs(self.v0))) if self.count else 0.0
         vrel = max(vmax, 1e-300)
@@ -234,6 +273,19 @@ def friction_features(eta, eta_static, gamma):
     Coulomb friction is present when some granule has eta > 0 or a static
     threshold > 0, viscous friction when some gamma > 0. Works on a batch too:
     arrays of shape (..., N) give boolean arrays of shape (...).
+
+    Parameters
+    ----------
+    eta, eta_static : array_like
+        Shape (..., N): kinetic friction forces and static thresholds, scene
+        units of force.
+    gamma : array_like
+        Shape (..., N): viscous coefficients, scene units of force / speed.
+
+    Returns
+    -------
+    tuple
+        ``(coulomb, viscous)``: bools, or boolean arrays of shape (...).
     """
     eta, eta_static, gamma = (np.asarray(a) for a in (eta, eta_static, gamma))
     coulomb = ((eta > 0) | (eta_static > 0)).any(axis=-1)
@@ -241,7 +293,18 @@ def friction_features(eta, eta_static, gamma):
 
 
 def build_model(scene: Scene) -> Model:
-    """Pack a validated scene into a :class:`Model`."""
+    """Pack a validated scene into a :class:`Model`.
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene (its own units are kept).
+
+    Returns
+    -------
+    Model
+        The arrays and features of the scene, scene units.
+    """
     g = scene.granules
     N = g.count
     mass = _per(g.mass, N)
@@ -387,6 +450,11 @@ def scale_problem(model: Model):
     ratio mu/k that sets every contact time, the initial kinetic and elastic
     energies, and the positions, which must resolve a thousandth of the smallest
     radius (a gap of 1e300 puts a granule where the spacing of doubles is 1e284).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
 
     Returns
     -------

@@ -59,7 +59,8 @@ class Restitution:
     Attributes
     ----------
     e : float or mpmath.mpf
-        Restitution coefficient ``-xi'(t_c)/v`` (0 when the contact never ends).
+        Restitution coefficient ``-xi'(t_c)/v``, dimensionless (0 when the contact
+        never ends).
     contact_time : float or mpmath.mpf
         Contact duration ``t_c`` (s); ``inf`` when the contact never ends.
     ended : bool
@@ -176,7 +177,7 @@ def choose_damping(e, k, m_eff, tensile=False) -> float:
     Parameters
     ----------
     e : float
-        Target restitution, ``0 < e <= 1`` (``e = 1`` gives ``c = 0``).
+        Target restitution, dimensionless, ``0 < e <= 1`` (``e = 1`` gives ``c = 0``).
     k, m_eff : float
         Stiffness (N/m) and reduced mass (kg).
     tensile : bool
@@ -422,6 +423,22 @@ def contact_time_scale(v, k, m_eff, n):
 
     In units ``tau_u`` (time) and ``v tau_u`` (overlap) the undamped contact is
     ``X'' = -X^(n-1)``, ``X(0) = 0``, ``X'(0) = 1``; for ``n = 5/2`` ``tau_u = (m_eff^2/(k^2 v))^(1/5)``.
+
+    Parameters
+    ----------
+    v : float
+        Impact (relative) speed, m/s.
+    k : float
+        Force coefficient of ``F = k xi^(n-1)``, N/m^(n-1).
+    m_eff : float
+        Reduced mass, kg.
+    n : float
+        Potential exponent, dimensionless (> 1).
+
+    Returns
+    -------
+    float
+        ``tau_u`` in seconds.
     """
     return (m_eff * v ** (2 - n) / k) ** (1 / n)
 
@@ -503,6 +520,22 @@ def hertz_contact_time(v, k, m_eff, n=2.5):
     ``n = 2``: ``pi sqrt(m_eff/k)``; ``n = 5/2``:
     ``t_c = (4/5)(5/4)^(2/5) sqrt(pi) Gamma(2/5)/Gamma(9/10) (m_eff^2/(k^2 v))^(1/5)
     = 3.2145... (m_eff^2/(k^2 v))^(1/5)``.  Returns an mpf at the current precision.
+
+    Parameters
+    ----------
+    v : float
+        Impact (relative) speed, m/s.
+    k : float
+        Force coefficient of ``F = k xi^(n-1)``, N/m^(n-1).
+    m_eff : float
+        Reduced mass, kg.
+    n : float
+        Potential exponent, dimensionless (> 1); 5/2 (Hertz) by default.
+
+    Returns
+    -------
+    mpmath.mpf
+        Contact time ``t_c`` in seconds.
     """
     n = mp.mpf(n)
     const = 2 * (n / 2) ** (1 / n) * mp.beta(1 / n, mp.mpf(1) / 2) / n
@@ -519,6 +552,11 @@ def viscoelastic_c1_exact():
     ``1 - e = 2 g int_0^Xmax (3/2) X^(1/2) sqrt(1 - (4/5) X^(5/2)) dX`` (scaled units of
     :func:`contact_time_scale`, ``g = A/tau_u``), is ``C1 * (3/2) g``; the integral is a
     Beta function.  :func:`restitution_reference` reproduces it (tests).
+
+    Returns
+    -------
+    mpmath.mpf
+        ``C1`` (dimensionless) at the current mpmath precision.
     """
     return (mp.sqrt(mp.pi) * mp.gamma(mp.mpf(3) / 5)
             / (mp.mpf(2) ** (mp.mpf(1) / 5) * mp.mpf(5) ** (mp.mpf(2) / 5) * mp.gamma(mp.mpf(21) / 10)))
@@ -538,6 +576,22 @@ def viscoelastic_group(v, k, A, m_eff):
     ``1 - e = C1 G + O(G^2)`` with ``C1 = 1.15344`` (i.e. the series' ``A alpha^(2/5)``
     with ``alpha = (3/2)^(5/2) k/m_eff``), as the reference integration confirms
     (without it the slope would be 1.5 C1 = 1.7302).
+
+    Parameters
+    ----------
+    v : float or array_like
+        Impact (relative) speed(s), m/s; any shape.
+    k : float
+        Hertz force coefficient, N/m^(3/2).
+    A : float
+        Viscoelastic dissipation time, s.
+    m_eff : float
+        Reduced mass, kg.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``G``, dimensionless, the shape of ``v``.
     """
     return 1.5 * A * (k / m_eff) ** 0.4 * np.asarray(v, dtype=float) ** 0.2
 

@@ -39,7 +39,7 @@ class Event:
     Attributes
     ----------
     t : float
-        Time of the event.
+        Time of the event, scene units of time.
     kind : str
         One of ``contact_close``, ``contact_open``, ``stop``, ``slip``.
     index : int
@@ -62,15 +62,20 @@ class EnergyLedger:
     Attributes
     ----------
     kinetic, potential : ndarray
-        Kinetic energy sum(m v^2 / 2) and elastic energy of the contacts.
+        Kinetic energy sum(m v^2 / 2) and elastic energy of the contacts, scene
+        units of energy (as every term below).
     coulomb, viscous : ndarray
         Energy dissipated so far by kinetic (Coulomb) and hydrodynamic friction (>= 0).
     initial : float
         Kinetic plus elastic energy at t = 0.
+    streamed_error : float or None
+        Largest relative |balance| (dimensionless, relative to :attr:`scale`) over
+        frames streamed to writers and not kept here; None when every frame is kept.
     contact_dissipated : ndarray
         Energy dissipated so far by the contacts' dashpots (>= 0; zeros when elastic).
     wall_work : ndarray
-        Work done on the chain so far by moving walls (either sign; zeros when fixed).
+        Work done on the chain so far by moving walls (either sign; zeros when fixed),
+        units of energy.
     body_work : ndarray
         Work done on the chain so far by body forces, sum_i f_i u_i (either sign).
     """
@@ -120,7 +125,15 @@ class EnergyLedger:
         return max(float(np.max(np.abs(self.balance)) / self.scale), streamed)
 
     def final(self) -> dict:
-        """The ledger's last frame (what summary.json lists under ``energy``)."""
+        """The ledger's last frame (what summary.json lists under ``energy``).
+
+        Returns
+        -------
+        dict
+            The terms at the last frame (scene units of energy) under their
+            summary.json names, the final ``balance_error`` (energy), its value
+            relative to :attr:`scale` and :attr:`balance_error` (dimensionless).
+        """
         out = {
             "kinetic": float(self.kinetic[-1]),
             "potential": float(self.potential[-1]),
@@ -145,7 +158,26 @@ TERMS_ADDED = ("contact_dissipated", "wall_work", "body_work")
 def ledger_balance(kinetic, potential, coulomb, viscous, contact_dissipated, wall_work,
                    body_work, initial):
     """Energy balance of the ledger's terms (arrays or floats, energy units): zero for
-    an exact run. Summed in this order everywhere (writers, streamed frames)."""
+    an exact run. Summed in this order everywhere (writers, streamed frames).
+
+    Parameters
+    ----------
+    kinetic, potential : float or numpy.ndarray
+        Kinetic and elastic energy, scene units of energy; arrays of one shape,
+        (F,) for a ledger.
+    coulomb, viscous, contact_dissipated : float or numpy.ndarray
+        Energy dissipated so far by Coulomb friction, drag and dashpots, same
+        units and shape.
+    wall_work, body_work : float or numpy.ndarray
+        Work done on the chain by moving walls and body forces, same units and shape.
+    initial : float
+        Kinetic plus elastic energy at t = 0, scene units of energy.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        The balance, scene units of energy, the shape of the terms.
+    """
     return (kinetic + potential + coulomb + viscous - initial
             + contact_dissipated - wall_work - body_work)
 
@@ -159,7 +191,8 @@ class Result:
     t : ndarray, shape (F,)
         Times of the output frames (the scene's time unit).
     x, v, f : ndarray, shape (F, N)
-        Centre positions, velocities and net spring forces at the frames.
+        Centre positions, velocities and net spring forces at the frames, scene
+        units (length, speed, force).
     energy : EnergyLedger
         Energy ledger at the frames.
     events : list of Event
@@ -177,11 +210,13 @@ class Result:
     stepper : str
         ``verlet`` or ``event``.
     dt : float or None
-        Verlet time step.
+        Verlet time step, scene units of time (None for the event stepper).
     t_final : float
-        Time of the final state (for stop: separation, the located separation time).
+        Time of the final state (for stop: separation, the located separation
+        time), scene units of time.
     x_final, v_final : ndarray, shape (N,)
-        Final state (never NaN: a run that produced NaN ends at its last finite frame).
+        Final positions and velocities, scene units (never NaN: a run that
+        produced NaN ends at its last finite frame).
     info : dict
         Extra facts (features, units mapping, warnings).
     """
@@ -206,6 +241,7 @@ class Result:
 
     @property
     def success(self) -> bool:
+        """True when :attr:`status` counts as a success."""
         return self.status.success
 
     @property
@@ -240,14 +276,27 @@ class Result:
 
     def to_xarray(self):
         """The frames as an ``xarray.Dataset``, dimensions (time, granule), laid out as
-        trajectory.h5 (needs the ``analysis`` extra)."""
+        trajectory.h5 (needs the ``analysis`` extra).
+
+        Returns
+        -------
+        xarray.Dataset
+            Variables x, v, f (time, granule), the ledger terms (time), per-granule
+            constants and the final state (granule), the event log (event); scene units.
+        """
         _need("xarray", "analysis", "Result.to_xarray")
         from .writers.trajectory import to_xarray
         return to_xarray(self, self.scene)
 
     def events_frame(self):
         """The event log as a ``pandas.DataFrame`` with columns t, kind, index (one row
-        per event; empty for a Verlet run without ``output.events``)."""
+        per event; empty for a Verlet run without ``output.events``).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per event: t (scene units of time), kind (str), index (int).
+        """
         pd = _need("pandas", "analysis", "Result.events_frame")
         return pd.DataFrame({"t": np.array([e.t for e in self.events], dtype=np.float64),
                              "kind": pd.Series([e.kind for e in self.events], dtype=object),
@@ -256,7 +305,13 @@ class Result:
     def ledger_frame(self):
         """The energy ledger as a ``pandas.DataFrame`` indexed by frame time ``t``, columns
         kinetic, potential, coulomb, viscous, contact_dissipated, wall_work, body_work,
-        balance (the columns of energy.csv)."""
+        balance (the columns of energy.csv).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Shape (F, 8), scene units of energy.
+        """
         pd = _need("pandas", "analysis", "Result.ledger_frame")
         led = self.energy
         return pd.DataFrame({"kinetic": led.kinetic, "potential": led.potential,
@@ -265,7 +320,15 @@ class Result:
                              "balance": led.balance}, index=pd.Index(self.t, name="t"))
 
     def summary(self) -> dict:
-        """A JSON-ready summary (what ``granular-chain run`` writes as summary.json)."""
+        """A JSON-ready summary (what ``granular-chain run`` writes as summary.json).
+
+        Returns
+        -------
+        dict
+            Status, stepper, dt, final state, event counts, the ledger's last
+            frame (:meth:`EnergyLedger.final`), steps, frames, wall time and
+            :attr:`info`; numbers in scene units.
+        """
         return {
             "status": str(self.status),
             "status_code": int(self.status),

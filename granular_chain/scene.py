@@ -68,7 +68,18 @@ SCALE_MAX = 2.0 ** 511
 
 
 class SceneError(ValueError):
-    """A scene that cannot be run: one line with file, dotted field path and reason."""
+    """A scene that cannot be run: one line with file, dotted field path and reason.
+
+    Parameters
+    ----------
+    source : str
+        The scene's file name (or ``--set``, ``<scene>``), first in the message.
+    field : str
+        Dotted path of the offending field (``granules.mass``); empty for the
+        file as a whole.
+    problem : str
+        What is wrong and what to change.
+    """
 
     def __init__(self, source: str, field: str, problem: str):
         self.source, self.field, self.problem = source, field, problem
@@ -797,6 +808,26 @@ def scene_from_dict(data: Any, source: str = "<scene>", *, stored: bool = False)
 
     ``stored``: the scene of a finished run, read back for its record; a state file
     it started from is then not read again (it may have moved since).
+
+    Parameters
+    ----------
+    data : Any
+        The raw scene mapping (from YAML or a dict), scaled or SI units as its
+        ``units`` says.
+    source : str
+        Name of where ``data`` came from, first in error messages.
+    stored : bool
+        True for the scene of a finished run read back (see above).
+
+    Returns
+    -------
+    Scene
+        The validated scene.
+
+    Raises
+    ------
+    SceneError
+        On any problem, naming the dotted field.
     """
     if not isinstance(data, dict):
         raise SceneError(source, "", f"a scene must be a mapping of fields, got {type(data).__name__}")
@@ -920,15 +951,36 @@ def _yaml_problem(exc: yaml.YAMLError) -> str:
 def parse_yaml_value(text: str) -> Any:
     """One YAML value with the scene file's rules (``1e-3`` is a float; aliases bounded).
 
+    Parameters
+    ----------
+    text : str
+        YAML text of one value (``0.3``, ``[0, 0.3]``, a whole mapping).
+
+    Returns
+    -------
+    Any
+        The parsed value.
+
     Raises
     ------
     yaml.YAMLError
+        Text that is not YAML.
     """
     return yaml.load(text, Loader=_SceneLoader)
 
 
 def read_scene_data(path: Union[str, Path]) -> Any:
     """The raw mapping of a scene file: size, aliases, nesting and duplicate keys checked.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scene's YAML file.
+
+    Returns
+    -------
+    Any
+        The parsed YAML document (a mapping for a scene file), not yet validated.
 
     Raises
     ------
@@ -986,6 +1038,17 @@ def set_path(data: dict, path: str, value, source: str = "--set") -> None:
     a single number, or a sparse ``{index: value}`` velocity, is first expanded to
     one value per granule (contact), so that one of them can be set. Missing
     groups are created; nothing is validated here (:func:`scene_from_dict` does).
+
+    Parameters
+    ----------
+    data : dict
+        The raw scene mapping, modified in place.
+    path : str
+        Dotted field path, ``a.b.c`` or ``a.b.c[i]``.
+    value : Any
+        The new value, in the scene's units.
+    source : str
+        Name used in error messages.
 
     Raises
     ------
@@ -1057,6 +1120,19 @@ def apply_overrides(data: dict, overrides: list[str], source: str = "--set") -> 
     overrides : list of str
         Items like ``granules.friction.kinetic=[0, 0.3]``, ``run.dt=1e-4`` or
         ``granules.friction.kinetic[1]=0.3`` (see :func:`set_path`).
+    source : str
+        Name used in error messages.
+
+    Returns
+    -------
+    dict
+        ``data``, with the overrides applied.
+
+    Raises
+    ------
+    SceneError
+        An item without ``=``, an empty field name, a value that is not YAML, or a path
+        :func:`set_path` refuses.
     """
     for item in overrides:
         if "=" not in item:
@@ -1117,5 +1193,11 @@ def _resolve_state_file(data, folder: Path) -> None:
 
 
 def scene_json_schema() -> dict:
-    """The JSON Schema of a scene file."""
+    """The JSON Schema of a scene file.
+
+    Returns
+    -------
+    dict
+        The schema (JSON-ready), with each field's description and units.
+    """
     return Scene.model_json_schema()

@@ -45,6 +45,16 @@ def preflight(scene: Scene) -> Model:
     ------
     SimulationError
         Naming the field to change and the limit (for example run.dt).
+
+    Parameters
+    ----------
+    scene : Scene
+        The validated scene (scene units).
+
+    Returns
+    -------
+    Model
+        The scene compiled to arrays (:func:`granular_chain.model.build_model`).
     """
     model = check_budget(scene).model  # refuses, before allocating, what cannot run
     if scene.run.stepper == "event":

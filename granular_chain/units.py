@@ -30,7 +30,30 @@ __all__ = ["scales", "scaled_parameters", "scaled_coulomb", "scaled_viscous", "s
 
 
 def scales(m: float, k: float, n: float, v0: float) -> tuple[float, float]:
-    """Length scale A and time scale B of Appendix A (A in metres, B in seconds for SI input)."""
+    """Length scale A and time scale B of Appendix A (A in metres, B in seconds for SI input).
+
+    Parameters
+    ----------
+    m : float
+        Reference mass (kg for SI input).
+    k : float
+        Force coefficient, force = k y^(n-1) (N/m^(n-1) for SI input).
+    n : float
+        Potential exponent (force = k y^(n-1)), dimensionless; 5/2 for Hertz.
+    v0 : float
+        Reference (impact) speed, > 0 (m/s for SI input).
+
+    Returns
+    -------
+    tuple of float
+        ``(A, B)``: length scale (units of length of the input) and time scale
+        ``A / v0``.
+
+    Raises
+    ------
+    ValueError
+        When ``v0`` is not positive.
+    """
     if v0 <= 0:
         raise ValueError("the reference speed v0 must be positive")
     A = (m * v0 * v0 / k) ** (1.0 / n)
@@ -43,6 +66,19 @@ def scaled_parameters(model) -> dict:
     The reference mass is granule 0's, the force coefficient and exponent
     those of contact 0 (or the left wall for N = 1), and v0 the largest initial
     speed. Returns a JSON-ready dict with A, B and the scaled eta, gamma.
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene (:class:`granular_chain.model.Model`), scene units.
+
+    Returns
+    -------
+    dict
+        ``reference`` (mass, stiffness, exponent, v0), ``length_scale_A``,
+        ``time_scale_B`` (scene units) and the lists ``eta_scaled``,
+        ``gamma_scaled`` (dimensionless), or ``{"note": ...}`` when every
+        granule starts at rest.
     """
     if model.count > 1:
         k, n = float(model.k[0]), float(model.n[0])
@@ -66,7 +102,19 @@ def speed_scale(model) -> float:
     """Speed scale of a scene: the larger of the speed a granule of mass m_0 would
     have with the most energetic granule's kinetic energy and the one it would have
     with the initial elastic energy (a precompressed scene starting at rest or at a
-    tiny speed is scaled by the motion it will have)."""
+    tiny speed is scaled by the motion it will have).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+
+    Returns
+    -------
+    float
+        Speed scale V, scene units of speed (0 when nothing moves or is
+        compressed).
+    """
     M = float(model.mass[0])
     V = float(np.max(np.abs(model.v0) * np.sqrt(model.mass / M)))
     pe0 = model.energies(np.zeros(model.count), model.v0)[1]
@@ -85,6 +133,16 @@ def internal_scales(model) -> Optional[tuple[float, float, float]]:
     time scale instead: a series in units of B would overflow. None when the
     scene is already scaled, nothing sets a scale, or the scales themselves
     would lose their digits (speeds near 1e-300: such a scene hardly moves).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+
+    Returns
+    -------
+    tuple of float or None
+        ``(M, A, B)``: mass, length and time scales in scene units, or None.
     """
     M = float(model.mass[0])
     present_k = [float(k) for k in model.k]
@@ -120,7 +178,18 @@ def internal_scales(model) -> Optional[tuple[float, float, float]]:
 
 def dashpot_rate(model) -> float:
     """Largest damping rate c/m of a linear dashpot (1/time; 0 otherwise): a dashpot
-    far faster than the collision sets the time scale, as a drag does."""
+    far faster than the collision sets the time scale, as a drag does.
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+
+    Returns
+    -------
+    float
+        ``max(c) * max(1/m)``, 1/time in scene units; 0 without linear dashpots.
+    """
     if model.features.damping != DAMPING_LINEAR or model.count < 1:
         return 0.0
     c = np.concatenate([model.damping, model.wall_damping])
@@ -133,6 +202,22 @@ def scaled_model(model, M: float, A: float, B: float):
     Force coefficients ``k A^n / (F A)`` with ``F = M A / B^2`` the force scale are
     written as ``k A^(n-2) B^2 / M`` and ``1/F`` as ``(B/M)(B/A)``, so that no factor
     underflows for tiny speeds (A ~ 1e-300 at v = 1e-300).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    M : float
+        Mass scale, scene units of mass.
+    A : float
+        Length scale, scene units of length.
+    B : float
+        Time scale, scene units of time.
+
+    Returns
+    -------
+    Model
+        A copy of ``model`` with every dimensional field divided by its scale.
     """
     w = model.walls.copy()
     w[0] /= A
@@ -153,7 +238,23 @@ def scaled_model(model, M: float, A: float, B: float):
 
 def scaled_wall_motion(motion: np.ndarray, A: float, B: float) -> np.ndarray:
     """Wall motions (kind, p1, p2), shape (2, 3), in units of length A and time B:
-    velocities by B/A, an amplitude by 1/A, a frequency by B, a duration by 1/B."""
+    velocities by B/A, an amplitude by 1/A, a frequency by B, a duration by 1/B.
+
+    Parameters
+    ----------
+    motion : numpy.ndarray
+        Shape (2, 3): rows left, right wall; columns kind code, p1, p2 in
+        scene units (speed; amplitude and frequency; speed and duration).
+    A : float
+        Length scale, scene units of length.
+    B : float
+        Time scale, scene units of time.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (2, 3), the same motions in units of A and B (a copy).
+    """
     out = motion.copy()
     for j in range(2):
         kind = int(motion[j, 0])
@@ -179,7 +280,23 @@ class UnitFactors(NamedTuple):
 
 
 def unit_factors(M: float, A: float, B: float) -> UnitFactors:
-    """The :class:`UnitFactors` of the internal units (M, A, B)."""
+    """The :class:`UnitFactors` of the internal units (M, A, B).
+
+    Parameters
+    ----------
+    M : float
+        Mass scale, scene units of mass.
+    A : float
+        Length scale, scene units of length.
+    B : float
+        Time scale, scene units of time.
+
+    Returns
+    -------
+    UnitFactors
+        Multipliers taking time, length, speed, force and energy from internal
+        units to scene units.
+    """
     return UnitFactors(B, A, A / B, M * A / (B * B), M * A * A / (B * B))
 
 
@@ -188,10 +305,44 @@ def unit_factors(M: float, A: float, B: float) -> UnitFactors:
 # Appendix A, granular_chain.paper.contact_and_scaling)
 # ----------------------------------------------------------------------------
 def scaled_coulomb(eta: float, m: float, v0: float, A: float) -> float:
-    """Kinetic friction *force* ``eta`` in scaled units: ``eta A / (m v0^2)``."""
+    """Kinetic friction *force* ``eta`` in scaled units: ``eta A / (m v0^2)``.
+
+    Parameters
+    ----------
+    eta : float
+        Kinetic friction force (N for SI input).
+    m : float
+        Reference mass (kg for SI input).
+    v0 : float
+        Reference speed (m/s for SI input).
+    A : float
+        Length scale from :func:`scales` (m for SI input).
+
+    Returns
+    -------
+    float
+        Scaled friction force, dimensionless.
+    """
     return eta * A / (m * v0 * v0)
 
 
 def scaled_viscous(gamma: float, m: float, v0: float, A: float) -> float:
-    """Viscous coefficient ``gamma`` (force / speed) in scaled units: ``gamma A / (m v0)``."""
+    """Viscous coefficient ``gamma`` (force / speed) in scaled units: ``gamma A / (m v0)``.
+
+    Parameters
+    ----------
+    gamma : float
+        Viscous coefficient, force / speed (kg/s for SI input).
+    m : float
+        Reference mass (kg for SI input).
+    v0 : float
+        Reference speed (m/s for SI input).
+    A : float
+        Length scale from :func:`scales` (m for SI input).
+
+    Returns
+    -------
+    float
+        Scaled viscous coefficient, dimensionless.
+    """
     return gamma * A / (m * v0)

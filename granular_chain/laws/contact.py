@@ -67,6 +67,22 @@ def contact_force(law, d, k, n):
 
     ``law`` is a compile-time constant in the kernels, so only one branch is
     compiled into each specialisation.
+
+    Parameters
+    ----------
+    law : int
+        LAW_LINEAR, LAW_HERTZ or LAW_POWER.
+    d : float
+        Overlap, scene units of length (any sign).
+    k : float
+        Force coefficient, scene units of force / length^(n-1).
+    n : float
+        Potential exponent, dimensionless (ignored by the fixed-exponent laws).
+
+    Returns
+    -------
+    float
+        Repulsive force ``k max(d, 0)^(n-1)``, scene units of force.
     """
     d = max(d, 0.0)
     if law == LAW_LINEAR:
@@ -79,7 +95,24 @@ def contact_force(law, d, k, n):
 
 @numba.njit(inline="always", cache=True)
 def contact_energy(law, d, k, n):
-    """Potential energy stored in a contact of overlap ``d`` (any sign)."""
+    """Potential energy stored in a contact of overlap ``d`` (any sign).
+
+    Parameters
+    ----------
+    law : int
+        LAW_LINEAR, LAW_HERTZ or LAW_POWER.
+    d : float
+        Overlap, scene units of length (any sign).
+    k : float
+        Force coefficient, scene units of force / length^(n-1).
+    n : float
+        Potential exponent, dimensionless (ignored by the fixed-exponent laws).
+
+    Returns
+    -------
+    float
+        ``k max(d, 0)^n / n``, scene units of energy.
+    """
     d = max(d, 0.0)
     if law == LAW_LINEAR:
         return linear_energy(d, k, n)

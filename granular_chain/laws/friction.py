@@ -48,7 +48,20 @@ def phi1(c, t):
 
 @numba.njit(inline="always", cache=True)
 def phi2(c, t):
-    """(t - phi1(c, t)) / c = integral of phi1, accurate for every c >= 0 (t^2/2 at c = 0)."""
+    """(t - phi1(c, t)) / c = integral of phi1, accurate for every c >= 0 (t^2/2 at c = 0).
+
+    Parameters
+    ----------
+    c : float
+        Drag rate gamma/m >= 0, 1/time (scene units).
+    t : float
+        Duration, scene units of time.
+
+    Returns
+    -------
+    float
+        ``phi2(c, t)``, units of time^2.
+    """
     x = c * t
     if x < 0.5:
         # Series sum_j (-x)^j / (j+2)! in nested (Horner) form: the direct form
@@ -94,13 +107,21 @@ def coulomb_kick(v, F, eta, eta_s, inv_m, h):
     Parameters
     ----------
     v, F : float
-        Velocity at the start of the kick and the frozen spring force.
+        Velocity at the start of the kick (speed) and the frozen spring force
+        (force), scene or internal units.
     eta, eta_s : float
-        Kinetic friction force and static threshold (eta_s >= eta).
+        Kinetic friction force and static threshold (eta_s >= eta), units of force.
     inv_m : float
-        1/mass.
+        1/mass, units of 1/mass.
     h : float
-        Kick duration (dt/2).
+        Kick duration (dt/2), units of time.
+
+    Returns
+    -------
+    tuple
+        ``(v_new, w_coulomb, w_viscous, code)``: velocity after the kick (scene
+        units), work of the kinetic friction (<= 0, scene units of energy), 0.0,
+        and the int code (bit STOPPED, bit SLIPPED).
     """
     s, a = sliding(v, F, eta, inv_m)
     v1 = v + a * h
@@ -133,7 +154,18 @@ def at_rest_by(v, v1, F, eta, inv_m, t):
 
 @numba.njit(cache=True)
 def drift_tables(c, dt, E, P1, P2):
-    """Per-granule drag coefficients for a step dt: exp(-c dt), phi1(c, dt), phi2(c, dt)."""
+    """Per-granule drag coefficients for a step dt: exp(-c dt), phi1(c, dt), phi2(c, dt).
+
+    Parameters
+    ----------
+    c : numpy.ndarray
+        Shape (N,): drag rates gamma/m, 1/time (scene or internal units).
+    dt : float
+        Step, units of time matching ``c``.
+    E, P1, P2 : numpy.ndarray
+        Shape (N,) each, filled in place: exp(-c dt) (dimensionless),
+        phi1(c, dt) (time) and phi2(c, dt) (time^2).
+    """
     for i in range(c.size):
         E[i] = math.exp(-c[i] * dt)
         P1[i] = phi1(c[i], dt)

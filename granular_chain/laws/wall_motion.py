@@ -39,6 +39,11 @@ def wall_displacement(kind, p1, p2, t):
         The kind's parameters (see the module docstring).
     t : float
         Time since the run's start (time units).
+
+    Returns
+    -------
+    float
+        s(t), scene units of length.
     """
     if kind == WALL_VELOCITY:
         return p1 * t
@@ -51,7 +56,22 @@ def wall_displacement(kind, p1, p2, t):
 
 @numba.njit(inline="always", cache=True)
 def wall_speed(kind, p1, p2, t):
-    """Velocity s'(t) of a wall (length/time); a pulse's velocity is p1 for t < p2, else 0."""
+    """Velocity s'(t) of a wall (length/time); a pulse's velocity is p1 for t < p2, else 0.
+
+    Parameters
+    ----------
+    kind : int
+        WALL_FIXED, WALL_VELOCITY, WALL_SINE or WALL_PULSE.
+    p1, p2 : float
+        The kind's parameters (see the module docstring), scene units.
+    t : float
+        Time since the run's start, scene units of time.
+
+    Returns
+    -------
+    float
+        s'(t), scene units of speed.
+    """
     if kind == WALL_VELOCITY:
         return p1
     if kind == WALL_SINE:

@@ -158,10 +158,15 @@ class TrajectoryWriter:
         Number of granules N.
     chunk_frames : int
         Frames buffered before a write.
+    resume_frames : int, optional
+        Continue an existing file after its first ``resume_frames`` frames (a run
+        restarted from a checkpoint); later frames and the final state are dropped.
     model : Model, optional
         The run's chain constants: its per-granule arrays (masses, radii, friction)
         are stored with the frames.
 
+    Notes
+    -----
     Use as a context manager; :meth:`close` with the run's Result writes the
     final state, events and status. Leaving the block without it flushes the
     frames and closes the file without a status (readers then refuse it).
@@ -255,7 +260,23 @@ class TrajectoryWriter:
                     contact_dissipated=0.0, wall_work=0.0, body_work=0.0) -> None:
         """Append one frame: time, state arrays of shape (N,) and the ledger terms
         (energy units; the last three are zero in a scene without dashpots, moving
-        walls or body forces)."""
+        walls or body forces).
+
+        Parameters
+        ----------
+        t : float
+            Frame time, scene units of time.
+        x, v, f : numpy.ndarray
+            Shape (N,) each: centre positions, velocities and net spring forces,
+            scene units (length, speed, force).
+        kinetic, potential : float
+            Kinetic and elastic energy, scene units of energy.
+        coulomb, viscous : float
+            Energy dissipated so far by Coulomb friction and drag, scene units of energy.
+        contact_dissipated, wall_work, body_work : float
+            Energy dissipated by dashpots and work of moving walls and body forces
+            so far, scene units of energy (0 when absent).
+        """
         i = self._fill
         self._t[i] = t
         for buf, arr in zip(self._xvf.values(), (x, v, f)):
@@ -282,7 +303,13 @@ class TrajectoryWriter:
         self._h5.flush()
 
     def close(self, result) -> None:
-        """Flush, then write the ledger balance, final state, events and status; close the file."""
+        """Flush, then write the ledger balance, final state, events and status; close the file.
+
+        Parameters
+        ----------
+        result : Result
+            The finished run (its energy, final state, events and status; scene units).
+        """
         self.flush()
         h5 = self._h5
         bal = self._series("balance")
@@ -364,7 +391,22 @@ class TrajectoryFrames:
 def write_trajectory(result, folder: Path, scene=None) -> Path:
     """Write ``folder/trajectory.h5`` from a finished Result (streamed through
     :class:`TrajectoryWriter`); returns the path. ``scene`` is stored with the
-    frames (and gives the chain constants of a Result that has none)."""
+    frames (and gives the chain constants of a Result that has none).
+
+    Parameters
+    ----------
+    result : Result
+        A finished run, scene units.
+    folder : path
+        Folder the file is written into (replaced if present).
+    scene : Scene, optional
+        The run's scene, stored as YAML; sets the units attributes.
+
+    Returns
+    -------
+    pathlib.Path
+        ``folder/trajectory.h5``.
+    """
     from ..readback import run_model
 
     led = result.energy
@@ -394,6 +436,23 @@ def read_h5(path, summary: Optional[dict] = None):
     ``summary`` (summary.json's content) supplies what files of the earlier
     layout (``t``, ``energy/*``, ``events/*``) did not hold: final state, steps,
     wall time and event counts.
+
+    Parameters
+    ----------
+    path : path
+        The trajectory.h5 file.
+    summary : dict, optional
+        summary.json's content (needed only for files of the earlier layout).
+
+    Returns
+    -------
+    tuple
+        ``(Result, Scene or None)``, in the units the file was written in.
+
+    Raises
+    ------
+    ValueError
+        When the file has no status (the run did not finish writing it).
     """
     from ..readback import summary_info
     from ..result import EnergyLedger, Event, Result, Status
@@ -437,7 +496,18 @@ def read_h5(path, summary: Optional[dict] = None):
 
 
 def read_trajectory(folder):
-    """Read a run folder back: ``(Result, Scene or None)`` (see :func:`granular_chain.read_run`)."""
+    """Read a run folder back: ``(Result, Scene or None)`` (see :func:`granular_chain.read_run`).
+
+    Parameters
+    ----------
+    folder : path
+        A run's output folder.
+
+    Returns
+    -------
+    tuple
+        ``(Result, Scene or None)``, scene units.
+    """
     from ..readback import read_run
 
     result = read_run(folder)
@@ -446,7 +516,22 @@ def read_trajectory(folder):
 
 def to_xarray(result, scene=None):
     """The run as an ``xarray.Dataset`` with the layout of trajectory.h5 (same names,
-    dimensions, units and attributes)."""
+    dimensions, units and attributes).
+
+    Parameters
+    ----------
+    result : Result
+        A finished run, scene units.
+    scene : Scene, optional
+        The run's scene: sets the units attributes (scaled without it) and the
+        chain constants when ``result`` has no Model.
+
+    Returns
+    -------
+    xarray.Dataset
+        Frames (time, granule), ledger (time), per-granule constants and final
+        state (granule), events (event); scene units.
+    """
     import xarray as xr
 
     units = scene.units if scene is not None else "scaled"

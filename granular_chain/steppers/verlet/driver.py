@@ -52,7 +52,20 @@ def default_dt(model: Model, t_end: float = math.inf) -> float:
     """1/200 of the shortest contact period (or collision time), at most t_end/100,
     shortened so that a whole number of steps ends exactly at a finite t_end.
     With dashpots or a sine-driven wall, also at most what they allow
-    (:func:`.forced_setup.forced_dt_limit`)."""
+    (:func:`.forced_setup.forced_dt_limit`).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    t_end : float
+        End of the run, scene units of time (``inf``: no such bound).
+
+    Returns
+    -------
+    float
+        The step, scene units of time.
+    """
     T = model.shortest_period()
     dt = T / _DEFAULT_STEPS_PER_PERIOD if math.isfinite(T) else 1e-2
     if is_forced(model):
@@ -65,7 +78,21 @@ def default_dt(model: Model, t_end: float = math.inf) -> float:
 
 def check_dt(model: Model, dt: float) -> None:
     """Refuse a Verlet step the stiffest contact, or the strongest linear dashpot,
-    cannot take (SimulationError names run.dt)."""
+    cannot take (SimulationError names run.dt).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    dt : float
+        The proposed step, scene units of time.
+
+    Raises
+    ------
+    SimulationError
+        When ``dt`` exceeds T/pi (T the shortest contact period or collision
+        time) or, with linear dashpots, ``dt c / m_eff >= 2``.
+    """
     T = model.shortest_period()
     if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
         raise SimulationError(
@@ -109,8 +136,8 @@ class StepPlan:
     steps : int
         Whole steps of ``dt`` (``steps * dt`` <= t_end).
     last_dt : float
-        A final shorter step ending at t_end, or 0 when ``steps * dt`` is t_end
-        to within 1e-9 dt.
+        A final shorter step ending at t_end (scene's time unit), or 0 when
+        ``steps * dt`` is t_end to within 1e-9 dt.
     every : int
         Steps between frames.
     note : str
@@ -125,7 +152,20 @@ class StepPlan:
 
 
 def step_plan(model: Model, scene: Scene) -> StepPlan:
-    """Plan the Verlet steps of a scene (see :class:`StepPlan`)."""
+    """Plan the Verlet steps of a scene (see :class:`StepPlan`).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units (sets the default dt).
+    scene : Scene
+        Its ``run`` (t_end, dt) and ``output`` (dt, every) settings.
+
+    Returns
+    -------
+    StepPlan
+        Steps, step sizes (scene units of time) and the frame cadence.
+    """
     settings, out = scene.run, scene.output
     t_end = settings.t_end
     dt = settings.dt if settings.dt is not None else default_dt(model, t_end)
@@ -256,7 +296,19 @@ class VerletRun:
 
     def frame(self, energies=None) -> Frame:
         """The synchronised state at the current time, with its ledger (``energies``:
-        the kinetic and elastic energy when already known)."""
+        the kinetic and elastic energy when already known).
+
+        Parameters
+        ----------
+        energies : tuple of float, optional
+            ``(kinetic, elastic)`` now, scene units of energy; computed when None.
+
+        Returns
+        -------
+        Frame
+            Step count, time, positions x0 + u, velocities, forces (shape (N,),
+            scene units) and the ledger terms.
+        """
         ke, pe = energies if energies is not None else self._energies()
         if self.forced:
             return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
@@ -281,6 +333,16 @@ class VerletRun:
         ``resume``: a state from :meth:`checkpoint_state` of the same scene; the
         run goes on from it as if it had never stopped (its writers must have
         been reopened at the checkpoint's frame and thermo line).
+
+        Parameters
+        ----------
+        resume : dict, optional
+            A checkpoint state (numpy arrays and numbers) to continue from.
+
+        Returns
+        -------
+        Result
+            The run's frames, ledger, final state and status, scene units.
         """
         if resume is None:
             first = self.frame()
@@ -400,7 +462,14 @@ class VerletRun:
 
     def checkpoint_state(self) -> dict:
         """Everything the run needs to go on from here: numpy arrays and numbers
-        (``numpy.savez`` keeps them exactly)."""
+        (``numpy.savez`` keeps them exactly).
+
+        Returns
+        -------
+        dict
+            Name -> numpy array or numpy scalar (displacements, velocities, forces
+            of shape (N,), ledger, clock, frame cadence, first frame, events so far).
+        """
         state = {name: getattr(self, name).copy() for name in self._STATE_ARRAYS}
         state.update({name: np.float64(getattr(self, name)) if name in (
             "t_now", "dt_now", "next_thermo", "next_ck", "e0") else np.int64(getattr(self, name))

@@ -34,14 +34,43 @@ def log_capacity(N, coulomb):
     """Entries an event log needs for one step of a chain of N granules: every
     contact (walls included) may close or open, and with Coulomb friction every
     granule may stop and slip in its kick. The kernel starts a step only with
-    this much room left."""
+    this much room left.
+
+    Parameters
+    ----------
+    N : int
+        Number of granules.
+    coulomb : bool
+        Whether the scene has Coulomb friction (stop and slip events).
+
+    Returns
+    -------
+    int
+        ``N + 1`` entries, plus ``2 N`` with Coulomb friction.
+    """
     return N + 1 + (2 * N if coulomb else 0)
 
 
 def new_event_log(N: int, coulomb: bool, log_events: int) -> EventBuffers:
     """Buffers for the kernels' ``log`` argument: room for at least 65536
     entries and one step when logging; empty otherwise (a kernel compiled
-    without the log never touches them)."""
+    without the log never touches them).
+
+    Parameters
+    ----------
+    N : int
+        Number of granules.
+    coulomb : bool
+        Whether the scene has Coulomb friction.
+    log_events : int
+        Nonzero when the kernel logs events.
+
+    Returns
+    -------
+    EventBuffers
+        ``step`` (int64), ``kind`` (int8), ``index`` (int64) of one length, and
+        ``fill`` (int64, shape (1,), 0).
+    """
     size = max(1 << 16, log_capacity(N, coulomb)) if log_events else 0
     return EventBuffers(np.zeros(size, dtype=np.int64), np.zeros(size, dtype=np.int8),
                         np.zeros(size, dtype=np.int64), np.zeros(1, dtype=np.int64))
@@ -130,11 +159,11 @@ class EventLog:
     coulomb : bool
         Whether the kernel runs the Coulomb (merged-kick) passes.
     dt : float
-        Step.
+        Step, units of time of the model.
     steps : int
         Whole steps of dt in the plan; later steps end at ``t_end``.
     t_end : float
-        End of the run.
+        End of the run, units of time of the model.
     """
 
     def __init__(self, N: int, coulomb: bool, dt: float, steps: int, t_end: float):
@@ -147,7 +176,22 @@ class EventLog:
     def call(self, call, control: Call, done: int):
         """``call(control)`` (one kernel call), draining the log after it and calling
         again while the kernel reports LOG_FULL; ``done`` = steps of the run before.
-        Returns (steps taken, code) as one call would."""
+        Returns (steps taken, code) as one call would.
+
+        Parameters
+        ----------
+        call : callable
+            ``call(control) -> (steps taken, code)``: one kernel call.
+        control : Call
+            What the call is asked to do (:class:`.records.Call`).
+        done : int
+            Steps of the run taken before this call.
+
+        Returns
+        -------
+        tuple of int
+            ``(steps taken, code)``, code a :class:`granular_chain.codes.Pause`.
+        """
         from ...codes import Pause
 
         taken, code = call(control)
@@ -170,14 +214,33 @@ class EventLog:
 
     def half_kick(self, v, f, model, h: float, t: float) -> None:
         """Hold the stop and slip events of the half kick :func:`.kernel.synchronise`
-        takes at time t (v, f and h as given to it); :meth:`commit` adds them."""
+        takes at time t (v, f and h as given to it); :meth:`commit` adds them.
+
+        Parameters
+        ----------
+        v, f : numpy.ndarray
+            Shape (N,) each: velocities and net spring forces before the kick,
+            units of the model.
+        model : Model
+            The compiled scene (friction forces, inverse masses).
+        h : float
+            Kick duration, units of time of the model.
+        t : float
+            Time the events are logged at, units of time of the model.
+        """
         kick_codes(v, f, model.eta, model.eta_static, model.inv_mass, h, self._codes)
         self._pending = [(t, str(kind), int(i)) for bit, kind in
                          ((1, EventKind.STOP), (2, EventKind.SLIP))
                          for i in np.flatnonzero(self._codes & bit)]
 
     def commit(self) -> list:
-        """Add the held half-kick events (those the run's counts take in); the list."""
+        """Add the held half-kick events (those the run's counts take in); the list.
+
+        Returns
+        -------
+        list of Event
+            Every event logged so far (times in the model's units).
+        """
         from ...result import Event
 
         self.events.extend(Event(t, kind, i) for t, kind, i in sorted(

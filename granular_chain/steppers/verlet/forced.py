@@ -124,11 +124,13 @@ class Forcing(NamedTuple):
     ----------
     d0, k, n, coefficient : ndarray, shape (N + 1,)
         Initial overlap, force coefficient, exponent and dashpot coefficient (c or
-        A) of contact c (c = 0 the left wall, c = N the right wall).
+        A) of contact c (c = 0 the left wall, c = N the right wall), units of the
+        model (length, force / length^(n-1), dimensionless, mass/time or time).
     body : ndarray, shape (N,)
-        Body force on each granule along +x.
+        Body force on each granule along +x, units of force of the model.
     motion : ndarray, shape (2, 3)
-        (kind, p1, p2) of the left and right wall (:mod:`granular_chain.laws.wall_motion`).
+        (kind, p1, p2) of the left and right wall (:mod:`granular_chain.laws.wall_motion`),
+        units of the model.
     ends : ndarray of int64, shape (2,)
         First and last contact index present: 0 or 1, N or N - 1 (walls or not).
     tensile : int
@@ -156,15 +158,18 @@ class ForcedState(NamedTuple):
     delta, spring, dashpot, phi, force : ndarray, shape (N + 1,)
         Per contact at the current time: overlap, spring force k delta^(n-1),
         dashpot force D (synchronised velocities), its primitive Phi and the
-        total force (clipped unless tensile); zeros for an absent wall.
+        total force (clipped unless tensile); zeros for an absent wall. Units of
+        the model (length, force, force, impulse = force x time, force).
     closing : ndarray, shape (N + 1,)
-        Work array: each contact's force in the closing half kick.
+        Work array: each contact's force in the closing half kick (force).
     v_pred : ndarray, shape (N,)
-        Work array: velocities predicted at the end of the step.
+        Work array: velocities predicted at the end of the step (speed).
     work : ndarray, shape (2,)
-        Energy dissipated so far by the dashpots; work done so far by the walls.
+        Energy dissipated so far by the dashpots; work done so far by the walls
+        (units of energy of the model).
     clock : ndarray, shape (2,)
-        (t_base, steps since t_base): a step starts at t_base + steps dt.
+        (t_base, steps since t_base): a step starts at t_base + steps dt
+        (t_base in units of time of the model; the count a float).
     """
 
     delta: np.ndarray
@@ -453,7 +458,23 @@ def forced_chunk(features, chain, timestep, state, call, forcing, fstate):
 @numba.njit(cache=True)
 def forced_start(features, state, forcing, fstate, t):
     """The contact state (into fstate) and net forces (into state.f) of
-    (state.u, state.v) at time t."""
+    (state.u, state.v) at time t.
+
+    Parameters
+    ----------
+    features : ForcedFeatures
+        Compile-time codes.
+    state : State
+        The kernel's state (:mod:`.records`); ``state.f`` (shape (N,), units of
+        force of the model) is written.
+    forcing : Forcing
+        Runtime constants; per-contact arrays of shape (N+1,), left wall first.
+    fstate : ForcedState
+        Contact state, written: overlaps, spring forces and dashpot primitives of
+        the contacts, units of the model.
+    t : float
+        Time of the state, units of time of the model (sets the walls' places).
+    """
     u, law = state.u, features.law
     s = wall_positions(forcing, t)
     for c in range(forcing.ends[0], forcing.ends[1] + 1):

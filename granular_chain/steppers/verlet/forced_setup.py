@@ -32,7 +32,18 @@ FORCED_STATE_ARRAYS = ("delta", "spring", "dashpot", "phi", "force", "work", "cl
 
 
 def is_forced(model: Model) -> bool:
-    """Whether the scene needs the forced kernel (dashpot, body force or moving wall)."""
+    """Whether the scene needs the forced kernel (dashpot, body force or moving wall).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene.
+
+    Returns
+    -------
+    bool
+        True unless the scene is elastic with fixed walls and no body force.
+    """
     return not model.features.elastic_and_fixed
 
 
@@ -43,7 +54,23 @@ def _with_walls(model: Model, chain_values, left, right) -> np.ndarray:
 def forced_records(model: Model, state, stop_mode: int):
     """(ForcedFeatures, Forcing, ForcedState) of a model, the contact state set for
     (state.u, state.v) at t = 0 and state.f the net force (compiles the kernel's
-    start function for these features)."""
+    start function for these features).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    state : State
+        The kernel's state (:class:`.records.State`); ``state.f`` is set here.
+    stop_mode : int
+        The run's stop condition (:class:`granular_chain.codes.StopMode`).
+
+    Returns
+    -------
+    tuple
+        ``(ForcedFeatures, Forcing, ForcedState)`` (:mod:`.forced`); arrays of
+        the contacts with the walls are shape (N+1,), left wall first.
+    """
     feat, N, w = model.features, model.count, model.walls
     features = ForcedFeatures(law=int(feat.law), coulomb=int(feat.coulomb),
                               viscous=int(feat.viscous), damping=int(feat.damping))
@@ -70,6 +97,16 @@ def dashpot_rate(model: Model) -> float:
     alone for a wall contact): c / m_eff. A viscoelastic one acts like a linear
     dashpot A k_eff, k_eff the contact's linear stiffness: A (2 pi / T)^2 with T
     the shortest contact time (an estimate: 0 when T is unknown).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+
+    Returns
+    -------
+    float
+        Rate in 1/time, scene units (0 without dashpots).
     """
     feat, m = model.features, model.mass
     mu = np.concatenate((m[:-1] * m[1:] / (m[:-1] + m[1:]), m[:1], m[-1:]))
@@ -87,7 +124,18 @@ def forced_dt_limit(model: Model) -> float:
     1/40 of the fastest dashpot's time 1/:func:`dashpot_rate` (the dashpot's
     explicit part is unstable at 2 of them; at 1/40 the ledger's error from it is
     about 3e-4 of the energy a collision loses), and 200 steps per period of a
-    sine-driven wall."""
+    sine-driven wall.
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+
+    Returns
+    -------
+    float
+        Largest step, scene units of time (``inf`` when nothing limits it).
+    """
     limit = math.inf
     rate = dashpot_rate(model)
     if rate > 0:
@@ -99,13 +147,41 @@ def forced_dt_limit(model: Model) -> float:
 
 
 def wall_positions(model: Model, t: float) -> tuple[float, float]:
-    """(s_L, s_R): the walls' displacements at time t."""
+    """(s_L, s_R): the walls' displacements at time t.
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    t : float
+        Time since the run's start, scene units of time.
+
+    Returns
+    -------
+    tuple of float
+        ``(s_L, s_R)``, scene units of length.
+    """
     return tuple(float(wall_displacement(int(k), p1, p2, t)) for k, p1, p2 in model.wall_motion)
 
 
 def energies_at(model: Model, u, v, t: float) -> tuple[float, float]:
     """Kinetic and elastic energy of (u, v) at time t, the wall contacts' overlaps
-    taken with the walls where they are at t."""
+    taken with the walls where they are at t.
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    u, v : numpy.ndarray
+        Shape (N,) each: displacements and velocities, scene units.
+    t : float
+        Time, scene units of time.
+
+    Returns
+    -------
+    tuple of float
+        ``(kinetic, elastic)``, scene units of energy.
+    """
     if not model.features.driven:
         return model.energies(u, v)
     s_left, s_right = wall_positions(model, t)
@@ -120,5 +196,18 @@ def energies_at(model: Model, u, v, t: float) -> tuple[float, float]:
 
 
 def body_work(model: Model, u) -> float:
-    """Work done by the body forces since t = 0: sum_i f_i u_i (exact: they are constant)."""
+    """Work done by the body forces since t = 0: sum_i f_i u_i (exact: they are constant).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    u : numpy.ndarray
+        Shape (N,): displacements since t = 0, scene units of length.
+
+    Returns
+    -------
+    float
+        Work, scene units of energy.
+    """
     return float(np.dot(model.body_force, u))

@@ -70,7 +70,19 @@ OVERLAP = int(Status.OVERLAP)
 
 def chunk_kernel(features):
     """The kernel that runs a scene of these features: the passes with Coulomb
-    friction, the sweep otherwise."""
+    friction, the sweep otherwise.
+
+    Parameters
+    ----------
+    features : Features
+        The kernel's compile-time codes (:class:`.records.Features`); ``coulomb``
+        picks the kernel.
+
+    Returns
+    -------
+    numba dispatcher
+        :func:`passes_chunk` or :func:`sweep_chunk`.
+    """
     return passes_chunk if features.coulomb else sweep_chunk
 
 
@@ -380,6 +392,22 @@ def passes_chunk(features, chain, timestep, state, call, log):
     steps are those up to the time every granule was at rest (the step that
     found it moved nothing); the driver tests the synchronised velocities at a
     call's end, which the next call's first step would otherwise report.
+
+    Parameters
+    ----------
+    features : Features
+        Compile-time codes (``coulomb`` 1).
+    chain, timestep, state, call : Chain, Timestep, State, Call
+        See :mod:`.records`; arrays of shape (N,) or (N-1,), units of the model.
+    log : EventBuffers
+        Read only with ``features.log_events``; a step starts only with room for
+        :func:`.event_log.log_capacity` entries, else the call returns LOG_FULL.
+
+    Returns
+    -------
+    (steps, code) : (int, int)
+        Steps taken; Pause.CHUNK_DONE, Pause.LOG_FULL, Status.SEPARATED,
+        Status.AT_REST or Status.OVERLAP.
     """
     u, f, N, ledger, counts = state.u, state.f, state.u.size, state.ledger, state.counts
     size = BLOCK_LONG if u.size >= LONG_CHAIN else BLOCK
@@ -451,13 +479,14 @@ def synchronise(v, f, eta, eta_s, inv_m, h, vs):
     Parameters
     ----------
     v, f : ndarray, shape (N,)
-        Half-step velocities v(t - dt/2) after the last kick and net spring forces at t.
+        Half-step velocities v(t - dt/2) after the last kick and net spring forces at t,
+        units of the model.
     eta, eta_s, inv_m : ndarray, shape (N,)
-        Kinetic friction force, static threshold, 1/mass.
+        Kinetic friction force, static threshold (force), 1/mass, units of the model.
     h : float
-        dt/2.
+        dt/2, units of time of the model.
     vs : ndarray, shape (N,)
-        Out: velocities at t.
+        Out: velocities at t, units of speed of the model.
 
     Returns
     -------

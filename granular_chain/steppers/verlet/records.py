@@ -62,17 +62,20 @@ class Chain(NamedTuple):
     Attributes
     ----------
     d0, k, n : ndarray, shape (N-1,)
-        Initial overlap, force coefficient, exponent of each contact.
+        Initial overlap (length), force coefficient (force / length^(n-1)) and
+        exponent (dimensionless) of each contact, units of the model.
     walls : ndarray, shape (6,)
-        (d0, k, n) of the left, then the right wall contact.
+        (d0, k, n) of the left, then the right wall contact, units of the model.
     mass, inv_mass, eta, eta_static : ndarray, shape (N,)
-        Mass, 1/mass, kinetic friction force, static friction threshold.
+        Mass, 1/mass, kinetic friction force, static friction threshold (force),
+        units of the model.
     olim : ndarray, shape (N + 1,)
         Overlaps at which centres meet: the left wall's granule radius,
-        r_i + r_(i+1) for each contact, the right wall's granule radius.
+        r_i + r_(i+1) for each contact, the right wall's granule radius (length).
     fcap : float
         The smallest contact force at which some contact reaches its olim: only
-        a step with a contact force reaching it checks the overlaps themselves.
+        a step with a contact force reaching it checks the overlaps themselves
+        (units of force of the model).
     """
 
     d0: np.ndarray
@@ -95,7 +98,8 @@ class Timestep(NamedTuple):
     dt : float
         Step (time unit of the model).
     E, P1, P2 : ndarray, shape (N,)
-        exp(-c dt), phi1(c, dt), phi2(c, dt) (:func:`granular_chain.laws.friction.drift_tables`).
+        exp(-c dt) (dimensionless), phi1(c, dt) (time), phi2(c, dt) (time^2)
+        (:func:`granular_chain.laws.friction.drift_tables`).
     """
 
     dt: float
@@ -110,13 +114,15 @@ class State(NamedTuple):
     Attributes
     ----------
     u, v, f : ndarray, shape (N,)
-        Displacements, velocities, net spring forces (f consistent with u). With
+        Displacements, velocities, net spring forces (f consistent with u), units
+        of the model. With
         Coulomb friction (merged kicks) v holds between calls the half-step
         velocities of the last kick (:func:`.kernel.synchronise`).
     active : ndarray of uint8, shape (max(N-1, 1),)
         1 where a contact is closed (delta > 0); kept by the blocked passes only.
     ledger : ndarray, shape (2,)
-        Energy dissipated so far by Coulomb and by viscous friction (>= 0).
+        Energy dissipated so far by Coulomb and by viscous friction (>= 0), units
+        of energy of the model.
     counts : ndarray of int64, shape (4,)
         Events so far, indexed by :class:`granular_chain.codes.EventKind`.
     """
