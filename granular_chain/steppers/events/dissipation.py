@@ -227,10 +227,10 @@ def build_dissipative(law, coulomb, viscous, P, tol_v, nm, na, model, state, wor
     ----------
     law : int
         Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
-    coulomb : bool
-        Whether any granule has Coulomb friction (compile-time feature flag).
-    viscous : bool
-        Whether any granule has viscous friction (compile-time feature flag).
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
     P : int
         Taylor order; series arrays have P + 1 columns.
     tol_v : float

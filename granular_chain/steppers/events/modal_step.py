@@ -30,8 +30,8 @@ def modal_energy(coulomb, model, state, d, v0, v1, du0, du1):
 
     Parameters
     ----------
-    coulomb : bool
-        Whether any granule has Coulomb friction (compile-time feature flag).
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
     model : ChainArrays
         The two-granule chain's constants (N = 2), kernel units.
     state : MotionState
@@ -281,10 +281,10 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
     ----------
     law : int
         Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
-    coulomb : bool
-        Whether any granule has Coulomb friction (compile-time feature flag).
-    viscous : bool
-        Whether any granule has viscous friction (compile-time feature flag).
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
     settings : record of SETTINGS_DTYPE
         What the kernel is asked to do (end time, tolerances, stops), kernel units.
     clock : record of CLOCK_DTYPE
