@@ -133,7 +133,33 @@ def _into_bytes(records):
 
 @dataclasses.dataclass
 class BatchOutput:
-    """Per-point end state of :meth:`EventBatch.run` (M points, N granules)."""
+    """Per-point end state of :meth:`EventBatch.run` (M points, N granules).
+
+    All numbers in the scene's scaled units, which are the kernel's.
+
+    Attributes
+    ----------
+    code : ndarray, shape (M,)
+        The run's :class:`~granular_chain.codes.Status` (int64).
+    t_final : ndarray, shape (M,)
+        Time the run ended (NaN for points a stop request left unrun).
+    v_final : ndarray, shape (M, N)
+        Velocities at the end.
+    kinetic : ndarray, shape (M,)
+        Kinetic energy at the end.
+    potential : ndarray, shape (M,)
+        Elastic energy at the end.
+    initial : ndarray, shape (M,)
+        Kinetic + elastic energy at t = 0 (EnergyLedger.initial).
+    t_stop : ndarray, shape (M, N)
+        Time of each granule's first stop event, NaN if none.
+    wall_time : float
+        Seconds in the kernel (compiled loop and resumed runs).
+    last_records : EventRecords
+        The kernel's records holding the last point's run.
+    signal : int
+        SIGINT/SIGTERM number if a stop request ended the batch early, else 0.
+    """
 
     code: np.ndarray  #: (M,) the run's Status (int)
     t_final: np.ndarray  #: (M,)
@@ -154,11 +180,24 @@ class EventBatch:
     :func:`granular_chain.units.internal_scales`), and only for points whose
     friction has the scene's features (Coulomb friction present or not, viscous
     friction present or not): :func:`granular_chain.model.friction_features` tells.
+
+    Parameters
+    ----------
+    scene : Scene or EventOptions
+        The Scene (read once, :func:`~.options.event_options`) or its
+        :class:`~.options.EventOptions` (times in scaled units).
+    model : Model
+        The scene's Model, in scaled units (mass 1, force coefficient 1, largest
+        speed 1).
+
+    Raises
+    ------
+    ValueError
+        When the model is not in the kernel's scaled units.
     """
 
     def __init__(self, scene, model: Model):
-        """``scene``: the Scene (read once, :func:`~.options.event_options`) or its
-        :class:`~.options.EventOptions`; ``model`` its Model."""
+        """Pack the scene once and compile the batch loop for its features."""
         if model.units != "scaled" or internal_scales(model) is not None:
             raise ValueError("EventBatch needs a scene in the kernel's scaled units "
                              "(mass 1, force coefficient 1, largest speed 1)")
@@ -181,10 +220,30 @@ class EventBatch:
                 out, start, end]
 
     def run(self, eta, eta_static, gamma) -> BatchOutput:
-        """Run every point: eta, eta_static, gamma of shape (M, N), float64.
+        """Run every point (M points, N granules).
 
         The returned ``last_records`` hold the last point's run, from which
         :meth:`result` makes its full Result.
+
+        Parameters
+        ----------
+        eta : array_like, shape (M, N)
+            Kinetic (Coulomb) friction force of each granule at each point, scaled units.
+        eta_static : array_like, shape (M, N)
+            Static friction threshold, scaled force units.
+        gamma : array_like, shape (M, N)
+            Viscous friction coefficient, scaled units (force per velocity).
+
+        Returns
+        -------
+        BatchOutput
+            The end state of every point; points left unrun by a stop request have
+            code Status.INTERRUPTED and t_final NaN.
+
+        Raises
+        ------
+        ValueError
+            When the three arrays do not all have shape (M, N).
         """
         shape = (len(eta), self.model.count)
         arrs = [np.ascontiguousarray(x, dtype=np.float64) for x in (eta, eta_static, gamma)]
@@ -243,7 +302,18 @@ class EventBatch:
         return q + 1, chunk, wall + w, (rec if q == M - 1 else self.packed.records), stop
 
     def result(self, out: BatchOutput) -> Result:
-        """The full Result of the last point of ``out`` (as simulate_events returns it)."""
+        """The full Result of the last point of ``out`` (as simulate_events returns it).
+
+        Parameters
+        ----------
+        out : BatchOutput
+            The output of :meth:`run` on this batch.
+
+        Returns
+        -------
+        Result
+            The last point's run, in the scene's scaled units.
+        """
         pk = self.packed.with_records(out.last_records)
         return build_result(pk, int(out.code[-1]), out.wall_time, self.model, 1.0)
 

@@ -57,7 +57,19 @@ def _pulse_on(p2, t, tlo):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def wall_rates(t, tlo, model, state):
-    """The walls' velocities at time t + tlo into ``state.wall_rate``."""
+    """The walls' velocities at time t + tlo into ``state.wall_rate``.
+
+    Parameters
+    ----------
+    t : float
+        Time, kernel units (high part of the double-double clock).
+    tlo : float
+        Low part of the time ``t``, kernel units.
+    model : ChainArrays
+        The chain's constants; ``wall_motion`` (2, 3) read.
+    state : MotionState
+        ``wall_rate`` (2,) written: s_L', s_R', kernel units (length / time).
+    """
     for side in range(2):
         kind = int(model.wall_motion[side, 0])
         p1, p2 = model.wall_motion[side, 1], model.wall_motion[side, 2]
@@ -70,7 +82,21 @@ def wall_rates(t, tlo, model, state):
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def wall_series(P, t, tlo, model, work):
     """Taylor coefficients 1..P+1 of each wall's displacement at time t + tlo
-    (coefficient 0 is not needed: overlaps are state variables)."""
+    (coefficient 0 is not needed: overlaps are state variables).
+
+    Parameters
+    ----------
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    t : float
+        Time, kernel units (high part of the double-double clock).
+    tlo : float
+        Low part of the time ``t``, kernel units.
+    model : ChainArrays
+        The chain's constants; ``wall_motion`` (2, 3) read.
+    work : Workspace
+        ``wall_series`` (2, P + 2) written, kernel units (length / time^k).
+    """
     W = work.wall_series
     T = t + tlo
     for side in range(2):
@@ -94,7 +120,24 @@ def wall_series(P, t, tlo, model, work):
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def contact_rate(model, state, j):
-    """d(delta_j)/dt now: v_(j-1) - v_j with the walls' velocities at the ends."""
+    """d(delta_j)/dt now: v_(j-1) - v_j with the walls' velocities at the ends.
+
+    Parameters
+    ----------
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    j : int
+        Contact index, kernel numbering 0..N.
+
+    Returns
+    -------
+    float
+        The overlap's rate, kernel units (length / time).
+    """
     N = state.v.size
     vl = state.v[j - 1] if j >= 1 else state.wall_rate[0]
     vr = state.v[j] if j < N else state.wall_rate[1]
@@ -178,7 +221,34 @@ def _start_rows(law, tol_v, na, model, state, work):
 def build_dissipative(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
     """Taylor coefficients to order P of the moving granules' u, v and of the step's
     contacts' overlaps and forces with dashpots, body forces and moving walls
-    (``work.*_series``; ``work.wall_series`` already set for the step)."""
+    (``work.*_series``; ``work.wall_series`` already set for the step).
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    tol_v : float
+        Velocity tolerance, kernel units (length / time in units of the scene's
+        length and time scale).
+    nm : int
+        Size of the moving set, ``state.moving[:nm]``.
+    na : int
+        Number of the step's contacts, ``work.active[:na]``.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+    """
     linear = law == LAW_LINEAR
     mov, act, slide = state.moving, work.active, state.slide
     U, V, D, S, G, Fc = (work.u_series, work.v_series, work.d_series, work.s_series,
@@ -270,7 +340,41 @@ def _switch_on(P, h, tol_v, j, model, state, work):
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def dissipative_candidates(linear, P, h, tol_v, t, tlo, na, model, state, work):
     """Roots of every contact's event functions within [0, h] with dashpots and
-    moving walls, and a pulse wall's stop. Returns (earliest root or inf, candidates)."""
+    moving walls, and a pulse wall's stop.
+
+    Parameters
+    ----------
+    linear : bool
+        True for the linear law (n = 2), whose series are exact to roundoff.
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    h : float
+        Trial step, kernel time units.
+    tol_v : float
+        Velocity tolerance, kernel units (length / time in units of the scene's
+        length and time scale).
+    t : float
+        Time, kernel units (high part of the double-double clock).
+    tlo : float
+        Low part of the time ``t``, kernel units.
+    na : int
+        Number of the step's contacts, ``work.active[:na]``.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+
+    Returns
+    -------
+    tau_e : float
+        Earliest root, kernel time units (``math.inf``: none in [0, h]).
+    ncand : int
+        Number of candidates written to ``work.cand_*``.
+    """
     D = work.d_series
     tau_e = math.inf
     ncand = 0
@@ -328,9 +432,34 @@ def _product_integral(a, b, P, tau):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def dissipative_increment(P, na, model, state, work, tau):
-    """(dashpot work, wall work) over [0, tau] of the step: the integrals of
-    (g - s) delta' over the closed contacts with a dashpot and of
-    F_L s_L' - F_R s_R' over the moving walls."""
+    """(dashpot work, wall work) over [0, tau] of the step.
+
+    The integrals of (g - s) delta' over the closed contacts with a dashpot and
+    of F_L s_L' - F_R s_R' over the moving walls.
+
+    Parameters
+    ----------
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    na : int
+        Number of the step's contacts, ``work.active[:na]``.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+    tau : float
+        Time from the step's start, kernel units, 0 <= tau <= step.
+
+    Returns
+    -------
+    dashpot, wall : float
+        Work of the dashpots and work done by the walls over [0, tau], energy in
+        kernel units.
+    """
     N = state.v.size
     G, S, D, W, Fc = work.g_series, work.s_series, work.d_series, work.wall_series, work.f_series
     row = work.row
@@ -359,6 +488,23 @@ def branch_cap(h, na, model, work):
     and the step control, scaled by the first coefficients, let a step of 1.5
     times that distance through: its force series summed to a spurious zero
     (a two-grain collision at rtol 1e-12 opened 2e-8 after it began).
+
+    Parameters
+    ----------
+    h : float
+        Step proposed, kernel time units.
+    na : int
+        Number of the step's contacts, ``work.active[:na]``.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+
+    Returns
+    -------
+    float
+        The step, kernel time units, <= ``h``.
     """
     if model.dashpot[0] == DAMPING_LINEAR:
         return h

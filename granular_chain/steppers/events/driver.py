@@ -56,7 +56,19 @@ _SAVED_GROUPS = ("state", "work")
 
 def check_exponents(model: Model) -> None:
     """Refuse a scene whose contacts (walls included) have an exponent below
-    MIN_EXPONENT (SimulationError naming contacts.exponent)."""
+    MIN_EXPONENT (SimulationError naming contacts.exponent).
+
+    Parameters
+    ----------
+    model : Model
+        The scene's model; its contact exponents ``n`` and the walls' are
+        dimensionless.
+
+    Raises
+    ------
+    SimulationError
+        When an exponent is below MIN_EXPONENT.
+    """
     n = [float(x) for x in model.n]
     w = model.walls
     if model.features.left_wall:
@@ -95,7 +107,7 @@ def simulate_events(options, model: Model, log: FrameLog | None = None, *, resum
     ----------
     options : EventOptions or Scene
         The run's options (:func:`~.options.event_options` of the scene; a Scene
-        is read with it here).
+        is read with it here), times in scene units.
     model : Model
         The scene's Model (:func:`granular_chain.simulate.preflight`), in the
         scene's units.
@@ -117,6 +129,14 @@ def simulate_events(options, model: Model, log: FrameLog | None = None, *, resum
         them) and when a signal interrupts the run (before its final frame).
     checkpoint_every : int
         Taylor steps between checkpoints (0: only at an interruption).
+
+    Returns
+    -------
+    Result
+        ``stepper='event'``, in the scene's units: frames (t, x, v, f and the
+        energy ledger), the event log, the status and its message;
+        ``info['event_stepper']`` holds the Taylor order, tolerances, ledger
+        tolerance and the internal scales used.
     """
     check_exponents(model)
     if not isinstance(options, EventOptions):
@@ -201,9 +221,23 @@ def run_packed(options: EventOptions, model: Model, units, log=None, resume=None
 
 
 def next_budget(budget: int, seconds: float) -> int:
-    """Passes for the next kernel call so that it lasts about CHUNK_SECONDS: scaled
-    by the time the last ``budget`` passes took, by at most 4x up and 8x down (one
-    slow pass, e.g. a page fault, must not shrink the budget to nothing)."""
+    """Passes for the next kernel call so that it lasts about CHUNK_SECONDS.
+
+    Scaled by the time the last ``budget`` passes took, by at most 4x up and 8x
+    down (one slow pass, e.g. a page fault, must not shrink the budget to nothing).
+
+    Parameters
+    ----------
+    budget : int
+        Main-loop passes of the last call, >= 1.
+    seconds : float
+        Wall time the last call took, seconds (<= 0: the budget is multiplied by 4).
+
+    Returns
+    -------
+    int
+        The next call's passes, in [budget / 8, 4 budget] and >= 1.
+    """
     if seconds <= 0.0:
         return 4 * budget
     scaled = budget * (0.5 * CHUNK_SECONDS / seconds)  # aim at half: passes vary
@@ -335,6 +369,19 @@ class EventRun:
     few numbers an event, not frames). Checkpoints (:func:`checkpoint_state`)
     go to ``checkpoint`` every ``checkpoint_every`` Taylor steps and when the
     run is interrupted.
+
+    Parameters
+    ----------
+    packed : Packed
+        The run's records (kernel units).
+    log : FrameLog
+        Receives the frames, in the scene's units.
+    units : UnitFactors or None
+        Factors from kernel units to the scene's (None: the same units).
+    checkpoint : callable, optional
+        ``checkpoint(state)`` with a :func:`checkpoint_state` dictionary.
+    checkpoint_every : int
+        Taylor steps between checkpoints (0: only at an interruption).
     """
 
     def __init__(self, packed: Packed, log: FrameLog, units, checkpoint=None,
@@ -353,14 +400,37 @@ class EventRun:
 
     def passes(self, budget: int) -> int:
         """The work budget of the next call: ``budget``, cut so that the call returns
-        at the next checkpoint (the trajectory does not depend on where calls end)."""
+        at the next checkpoint (the trajectory does not depend on where calls end).
+
+        Parameters
+        ----------
+        budget : int
+            Main-loop passes the driver would give the call.
+
+        Returns
+        -------
+        int
+            Passes for the call, >= 1 (``budget`` itself without checkpoints).
+        """
         if self.every <= 0:
             return budget
         left = self.next_checkpoint - int(self.packed.clock.steps)
         return int(min(budget, max(left, 1)))
 
     def between(self, budget: int, mark, wall: float, interrupted: bool) -> None:
-        """After a kernel call: hand on its frames, checkpoint when due or interrupted."""
+        """After a kernel call: hand on its frames, checkpoint when due or interrupted.
+
+        Parameters
+        ----------
+        budget : int
+            The driver's current pass budget (saved in a checkpoint).
+        mark : tuple of (float, int)
+            (time in kernel units, steps) at the start of the pace window.
+        wall : float
+            Wall time of the kernel calls of this session so far, seconds.
+        interrupted : bool
+            A signal stops the run: a checkpoint is taken now.
+        """
         self.budget, self.mark = budget, mark
         self.flush()
         steps = int(self.packed.clock.steps)
@@ -413,7 +483,19 @@ class EventRun:
             self.frames += 1
 
     def restore(self, state: dict) -> None:
-        """Continue from ``state`` (:func:`checkpoint_state` of a run of the same scene)."""
+        """Continue from ``state`` (:func:`checkpoint_state` of a run of the same scene).
+
+        Parameters
+        ----------
+        state : dict
+            The checkpoint dictionary (arrays in kernel numbering and units).
+
+        Raises
+        ------
+        ValueError
+            When ``state`` is not a checkpoint of this format, or its arrays do not
+            fit the scene's.
+        """
         if int(state.get("format", -1)) != CHECKPOINT_FORMAT:
             raise ValueError(f"not an event-stepper checkpoint of format {CHECKPOINT_FORMAT}")
         pk = self.packed
@@ -464,22 +546,34 @@ def checkpoint_state(run: EventRun, wall: float = 0.0, interrupted: bool = False
     """Everything an event run needs to continue exactly (plain numpy arrays and
     Python scalars, for ``numpy.savez``).
 
-    Keys: ``format``; ``steps`` (steps taken); ``k_clock`` the kernel's clock
-    record (:data:`~.records.CLOCK_DTYPE`: time, step, event and frame counts,
-    the cadence position...); ``k_<group>_<field>`` every array of the kernel's
-    ``state`` and ``work`` records (positions ``k_state_u``,
-    velocities ``k_state_v``, overlaps, contact and friction modes, the kept
-    moving set, ...); the live rows of the frame buffers ``frames_t, frames_x,
-    frames_v, frames_f, frames_e`` (the last frame, already handed on) and the
-    event log so far ``events_t, events_kind, events_index``, ``events_counts`` (kernel
-    numbering and units); the driver's counters ``handed``, ``frames`` (frames
-    handed on so far), ``pe0``, ``kernel_balance``, ``budget``, ``mark_t``,
-    ``mark_steps``, ``wall_time`` (seconds of kernel calls so far),
-    ``interrupted`` (taken because a signal stops the run); and the FrameLog's
-    ``log_count``, ``log_max_balance_error``, ``log_keep`` and its first and
-    latest frames ``log_first_<field>``, ``log_last_<field>`` (fields of
-    :class:`~granular_chain.frames.Frame`), for a resumed log that keeps only
-    those two.
+    Parameters
+    ----------
+    run : EventRun
+        The streamed run, between kernel calls.
+    wall : float
+        Wall time of its kernel calls so far, seconds.
+    interrupted : bool
+        Taken because a signal stops the run.
+
+    Returns
+    -------
+    dict
+        Keys: ``format``; ``steps`` (steps taken); ``k_clock`` the kernel's clock
+        record (:data:`~.records.CLOCK_DTYPE`: time, step, event and frame counts,
+        the cadence position...); ``k_<group>_<field>`` every array of the kernel's
+        ``state`` and ``work`` records (positions ``k_state_u``,
+        velocities ``k_state_v``, overlaps, contact and friction modes, the kept
+        moving set, ...); the live rows of the frame buffers ``frames_t, frames_x,
+        frames_v, frames_f, frames_e`` (the last frame, already handed on) and the
+        event log so far ``events_t, events_kind, events_index``, ``events_counts`` (kernel
+        numbering and units); the driver's counters ``handed``, ``frames`` (frames
+        handed on so far), ``pe0``, ``kernel_balance``, ``budget``, ``mark_t``,
+        ``mark_steps``, ``wall_time`` (seconds of kernel calls so far),
+        ``interrupted`` (taken because a signal stops the run); and the FrameLog's
+        ``log_count``, ``log_max_balance_error``, ``log_keep`` and its first and
+        latest frames ``log_first_<field>``, ``log_last_<field>`` (fields of
+        :class:`~granular_chain.frames.Frame`), for a resumed log that keeps only
+        those two.
     """
     pk = run.packed
     rec = pk.records

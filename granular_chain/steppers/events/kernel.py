@@ -261,9 +261,42 @@ def _collect_active(dissip, nm, model, state, work):
 def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames):
     """One Taylor step of the mode, to its first event or its step size.
 
-    Returns (code, event, tau_e, ncand): code a Status (the run ended), a Pause
-    or GOING; event = 1 when the step ended at the earliest root tau_e of the
-    ncand candidates in ``work.cand_*``.
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
+    dissip : None or int
+        None: an elastic chain between fixed walls; an int: dashpots, body forces
+        or driven walls present (see :func:`~.kernel.run_events`).
+    settings : record of SETTINGS_DTYPE
+        What the kernel is asked to do (end time, tolerances, stops), kernel units.
+    clock : record of CLOCK_DTYPE
+        The run's clock and work totals (kernel units), advanced in place.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+    frames : FrameBuffers
+        Frame buffers (F rows; ``x``, ``v``, ``f`` (F, N), ``e`` (F, 7)), kernel units.
+
+    Returns
+    -------
+    code : int
+        A Status (the run ended), a Pause, or GOING.
+    event : int
+        1 when the step ended at the earliest candidate root, else 0.
+    tau_e : float
+        That root, kernel time units from the step's start (0.0 without an event).
+    ncand : int
+        Candidates written to ``work.cand_*`` (0 without an event).
     """
     linear = law == LAW_LINEAR
     P = settings.order

@@ -82,6 +82,18 @@ MODE_DTYPE = np.dtype([
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_sum(a, b):
+    """a + b = s + e exactly (Knuth's TwoSum).
+
+    Parameters
+    ----------
+    a, b : float
+        The addends, any units (the same for both).
+
+    Returns
+    -------
+    s, e : float
+        The rounded sum and its rounding error, in the units of ``a``.
+    """
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
@@ -89,7 +101,18 @@ def two_sum(a, b):
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_prod(a, b):
-    """a*b = p + e exactly (Dekker; no FMA needed)."""
+    """a*b = p + e exactly (Dekker; no FMA needed).
+
+    Parameters
+    ----------
+    a, b : float
+        The factors, any units.
+
+    Returns
+    -------
+    p, e : float
+        The rounded product and its rounding error, units of ``a * b``.
+    """
     p = a * b
     t = SPLIT * a
     ah = t - (t - a)
@@ -105,11 +128,27 @@ def two_prod(a, b):
 def setup(p, coulomb, viscous, model, state):
     """Fill the mode record ``p`` of granules 0, 1 and their closed contact 1.
 
-    ``model`` (:class:`~.records.ChainArrays`) and ``state``
-    (:class:`~.records.MotionState`) are the kernel's; friction a feature the
-    scene lacks (``coulomb``, ``viscous`` false) is left out. Returns False
-    when the mode is not covered (overlap negative, both granules stuck, or
-    both moving with unequal drag rates: those stay with the Taylor series).
+    Friction a feature the scene lacks (``coulomb``, ``viscous`` 0) is left out.
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The record written (``Workspace.modal[0]``).
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
+    model : ChainArrays
+        The two-granule chain's constants (N = 2), kernel units.
+    state : MotionState
+        Its state at the mode's start (kernel units) and friction modes.
+
+    Returns
+    -------
+    bool
+        False when the mode is not covered (overlap negative, both granules
+        stuck, both moving with unequal drag rates, or c^2 overflowing: those
+        stay with the Taylor series), else True.
     """
     overlap = state.overlap
     if overlap[1] < 0.0:
@@ -244,6 +283,19 @@ def state(p, th, tl):
 
     At tau = 0 the mode's initial state is returned exactly (the closed form
     would round it), so event functions agree with the state settle saw.
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+    th, tl : float
+        Time from the mode's start as a double-double th + tl, kernel time units.
+
+    Returns
+    -------
+    delta, w, v0, v1, du0, du1 : float
+        Overlap (length), its rate (length / time), the two velocities, and the
+        two granules' displacements since the mode's start (length); kernel units.
     """
     if th == 0.0 and tl == 0.0:
         return p.delta0, p.w0, p.v0_init, p.v1_init, 0.0, 0.0
@@ -343,9 +395,27 @@ def state(p, th, tl):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def g_event2(p, kind, th, tl):
-    """Event function and its time derivative (g < 0 on the valid side):
-    0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip of the stuck
-    granule (k delta > eta_s), 4 overlap reaching ``limit`` (the centres meet)."""
+    """Event function and its time derivative (g < 0 on the valid side).
+
+    Kinds: 0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip of the
+    stuck granule (k delta > eta_s), 4 overlap reaching ``limit`` (the centres meet).
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+    kind : int
+        Event function: 0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip
+        of the stuck granule, 4 the centres meeting.
+    th, tl : float
+        Time from the mode's start as a double-double th + tl, kernel time units.
+
+    Returns
+    -------
+    g, dg : float
+        The event function at tau = th + tl and dg/dtau, kernel units (length,
+        velocity or force, and those per time).
+    """
     delta, w, v0, v1, du0, du1 = state(p, th, tl)
     c = p.c
     wd = p.drive - p.k_rate * delta - c * w  # delta''
@@ -374,6 +444,23 @@ def g_event2(p, kind, th, tl):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def g_event(p, kind, th, tl):
+    """The event function alone (:func:`g_event2` without the derivative).
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+    kind : int
+        Event function: 0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip
+        of the stuck granule, 4 the centres meeting.
+    th, tl : float
+        Time from the mode's start as a double-double th + tl, kernel time units.
+
+    Returns
+    -------
+    float
+        g at tau = th + tl, kernel units (length, velocity or force).
+    """
     g, gd = g_event2(p, kind, th, tl)
     return g
 
@@ -433,7 +520,18 @@ def _max_of(p, kind, lo, hi):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def sample_step(p):
-    """Sampling interval: a quarter of the fastest time scale of the mode."""
+    """Sampling interval: a quarter of the fastest time scale of the mode.
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+
+    Returns
+    -------
+    float
+        The interval, kernel time units.
+    """
     rate = max(math.sqrt(p.k_rate), 0.5 * p.c, abs(p.om_hi))
     return 0.25 / rate
 
@@ -441,8 +539,20 @@ def sample_step(p):
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def slow_sample_step(p):
     """Largest sampling interval: sample_step, or a quarter of the slow time
-    scale 1/lambda_slow of an overdamped mode (D <= 0), lambda_slow =
-    K / (c/2 + sqrt(c^2/4 - K)) (the stable form of c/2 - sqrt(c^2/4 - K))."""
+    scale 1/lambda_slow of an overdamped mode (D <= 0).
+
+    lambda_slow = K / (c/2 + sqrt(c^2/4 - K)) (the stable form of c/2 - sqrt(c^2/4 - K)).
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+
+    Returns
+    -------
+    float
+        The interval, kernel time units.
+    """
     fast = sample_step(p)
     if p.d_hi > 0.0:
         return fast
@@ -455,6 +565,16 @@ def overlap_bound(p):
 
     y = delta - b/K obeys y'' + c y' + K y = 0 with c >= 0, so K y^2 + w^2
     never grows: delta <= b/K + sqrt(y0^2 + w0^2/K) at every time of the mode.
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+
+    Returns
+    -------
+    float
+        The bound, kernel length units (``math.inf`` when K <= 0).
     """
     K = p.k_rate
     if not (K > 0.0):
@@ -468,8 +588,19 @@ def overlap_bound(p):
 def open_root_analytic(p, h):
     """First tau in (0, h] with y(tau) = 0 when b = 0 (delta = y): closed form.
 
-    Returns the root as a double-double (th, tl) polished by Newton steps on the
-    accurate evaluator, or (inf, 0) when there is none in (0, h].
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+    h : float
+        End of the interval searched, kernel time units.
+
+    Returns
+    -------
+    th, tl : float
+        The root as a double-double, kernel time units, polished by Newton steps
+        on the accurate evaluator; (0, 0) when the contact opens at once and
+        (inf, 0) when there is no root in (0, h].
     """
     y0 = p.y0
     c = p.c
@@ -536,8 +667,28 @@ def first_root(p, kind, lo, hi, nsamp):
     Sampling at ``nsamp`` points with the derivative: a sign change is located
     to an ulp (:func:`_root_in_bracket`); an interior maximum between two samples (g' from + to -) is
     located on g' and checked, so a grazing dip between samples is not missed
-    (the same rule as the Taylor path's polynomial roots). ``lo`` is 0 (the mode's start) or the end
-    of a window already searched (g < 0 there).
+    (the same rule as the Taylor path's polynomial roots).
+
+    Parameters
+    ----------
+    p : record of MODE_DTYPE
+        The mode record filled by :func:`setup` (kernel units).
+    kind : int
+        Event function: 0 open, 1 stop of granule 0, 2 stop of granule 1, 3 slip
+        of the stuck granule, 4 the centres meeting.
+    lo : float
+        Start of the window, kernel time units: 0 (the mode's start) or the end
+        of a window already searched (g < 0 there).
+    hi : float
+        End of the window, kernel time units.
+    nsamp : int
+        Number of samples in the window, >= 1.
+
+    Returns
+    -------
+    th, tl : float
+        The root as a double-double, kernel time units; (inf, 0) when g stays
+        negative on [lo, hi].
     """
     ga, da = g_event2(p, kind, lo, 0.0)
     if ga > 0.0:

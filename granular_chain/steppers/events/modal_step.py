@@ -26,7 +26,29 @@ WINDOW = 3
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def modal_energy(coulomb, model, state, d, v0, v1, du0, du1):
     """Mechanical energy of the pair at overlap d, velocities v0, v1, and the
-    Coulomb work of displacements du0, du1 in the current friction modes."""
+    Coulomb work of displacements du0, du1 in the current friction modes.
+
+    Parameters
+    ----------
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    model : ChainArrays
+        The two-granule chain's constants (N = 2), kernel units.
+    state : MotionState
+        Its state; only the friction modes ``slide`` (2,) are read.
+    d : float
+        Overlap of the contact between the granules, kernel length units.
+    v0, v1 : float
+        Velocities of granules 0 and 1, kernel units (length / time).
+    du0, du1 : float
+        Displacements of granules 0 and 1 since the step's start, kernel length units.
+
+    Returns
+    -------
+    energy, coulomb_work : float
+        Kinetic plus elastic energy, and the Coulomb work of the displacements;
+        energy in kernel units.
+    """
     mass, slide, eta = model.mass, state.slide, model.eta
     e = 0.5 * mass[0] * v0 * v0 + 0.5 * mass[1] * v1 * v1
     if d > 0.0:
@@ -44,11 +66,32 @@ def modal_energy(coulomb, model, state, d, v0, v1, du0, du1):
 def try_jump(law, settings, clock, model, state):
     """N = 2, n = 2, viscous only, gamma/m equal: decide from the exact modal
     solution whether the closed contact can ever open; if not, move the state
-    to t_end (``clock.jumped = 1``) and return True.
+    to t_end (``clock.jumped = 1``).
 
     delta'' + c delta' + K delta = 0 (c = gamma/m, K = k (1/m1 + 1/m2)) with
     c^2 >= 4K: delta is a sum of two decaying exponentials (or (a + b t) e^(-ct/2)
     at critical damping), whose only zero is found in closed form.
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    settings : record of SETTINGS_DTYPE
+        What the kernel is asked to do (end time, tolerances, stops), kernel units.
+    clock : record of CLOCK_DTYPE
+        The run's clock and work totals (kernel units), advanced in place.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+
+    Returns
+    -------
+    bool
+        True when the state was moved to ``settings.t_end`` (the viscous work of
+        the jumped tail added to ``clock.work_viscous``), False when nothing changed.
     """
     u, v, overlap, mass = state.u, state.v, state.overlap, model.mass
     gamma, stiffness = model.gamma, model.stiffness
@@ -231,11 +274,42 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
     """One step of the exact modal solution from the mode's start (record
     ``work.modal``, filled by :func:`modal_n2.setup`).
 
-    Returns (code, event, tau_e, ncand): code a Status (the run ended), a
-    Pause, or GOING; event = 1 when the step ended at the earliest candidate
-    root (``work.cand_*`` filled, ncand of them). A step can span a whole
-    contact, so the centres meeting is a root like the others (searched only
-    when the mode's energy bound does not exclude it).
+    A step can span a whole contact, so the centres meeting is a root like the
+    others (searched only when the mode's energy bound does not exclude it).
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
+    settings : record of SETTINGS_DTYPE
+        What the kernel is asked to do (end time, tolerances, stops), kernel units.
+    clock : record of CLOCK_DTYPE
+        The run's clock and work totals (kernel units), advanced in place.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+    frames : FrameBuffers
+        Frame buffers (F rows; ``x``, ``v``, ``f`` (F, N), ``e`` (F, 7)), kernel units.
+
+    Returns
+    -------
+    code : int
+        A Status (the run ended), a Pause, or GOING.
+    event : int
+        1 when the step ended at the earliest candidate root, else 0.
+    tau_e : float
+        That root, kernel time units from the step's start (0.0 without an event).
+    ncand : int
+        Candidates written to ``work.cand_*`` (0 without an event).
     """
     p = work.modal[0]
     u, v, overlap = state.u, state.v, state.overlap

@@ -44,7 +44,28 @@ def _rate(state, j):
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def spring_force(law, model, state, i, skip):
     """Net contact force on granule i (contact ``skip`` left out; -5: none), plus
-    its body force."""
+    its body force.
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    i : int
+        Granule index, kernel numbering 0..N-1.
+    skip : int
+        Contact left out of the sum (kernel numbering; -5: none).
+
+    Returns
+    -------
+    float
+        The force, kernel units (positive towards increasing x).
+    """
     f = 0.0
     if model.body[i] != 0.0:
         f = model.body[i]
@@ -57,7 +78,26 @@ def spring_force(law, model, state, i, skip):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def force_rate(law, model, state, j):
-    """Time derivative of the force of contact j, k (n - 1) delta^(n-2) w (0 when open)."""
+    """Time derivative of the force of contact j, k (n - 1) delta^(n-2) w (0 when open).
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    j : int
+        Contact index, kernel numbering 0..N (0: left wall, N: right wall).
+
+    Returns
+    -------
+    float
+        dF/dt, kernel units (force per time); 0 for an open or absent contact.
+    """
     overlap = state.overlap
     if model.present[j] == 0 or state.closed[j] == 0 or overlap[j] < 0.0:
         return 0.0
@@ -75,7 +115,28 @@ def force_rate(law, model, state, j):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def acceleration(law, model, state, i, skip):
-    """Acceleration of granule i in its mode (0 when stuck or outside the chain)."""
+    """Acceleration of granule i in its mode (0 when stuck or outside the chain).
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    i : int
+        Granule index, kernel numbering (outside 0..N-1: 0 returned).
+    skip : int
+        Contact left out of the sum (kernel numbering; -5: none).
+
+    Returns
+    -------
+    float
+        The acceleration, kernel units (length / time^2).
+    """
     N = state.v.size
     if i < 0 or i >= N:
         return 0.0
@@ -90,8 +151,18 @@ def acceleration(law, model, state, i, skip):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def initial_friction_modes(model, state):
-    """Friction modes at the start: ``has_coulomb`` 1 where a static threshold
-    exists (Coulomb friction), ``slide`` the sign of v there, 2 (no friction) elsewhere."""
+    """Friction modes at the start.
+
+    ``has_coulomb`` 1 where a static threshold exists (Coulomb friction),
+    ``slide`` the sign of v there, 2 (no friction) elsewhere; both written in place.
+
+    Parameters
+    ----------
+    model : ChainArrays
+        The chain's constants; ``eta_static`` (N,) read, ``has_coulomb`` (N,) written.
+    state : MotionState
+        ``v`` (N,) read (kernel units), ``slide`` (N,) written.
+    """
     v, slide = state.v, state.slide
     for i in range(v.size):
         if model.eta_static[i] > 0.0:
@@ -248,7 +319,22 @@ def _settle_window(law, model, state, work):
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def log_event(t, kind, index, clock, log):
-    """Append an event (time, codes.EventKind, model index) to the log."""
+    """Append an event (time, codes.EventKind, model index) to the log.
+
+    Parameters
+    ----------
+    t : float
+        Time of the event, kernel units.
+    kind : int
+        A :class:`~granular_chain.codes.EventKind` code.
+    index : int
+        Model numbering: contact i between granules i, i + 1 (-1: left wall), or granule i.
+    clock : record of CLOCK_DTYPE
+        The run's clock and work totals (kernel units), advanced in place.
+    log : EventLog
+        The event log (E rows), grown by the driver.
+        Must have room for row ``clock.n_events``.
+    """
     n = clock.n_events
     log.t[n] = t
     log.kind[n] = kind
@@ -260,9 +346,35 @@ def log_event(t, kind, index, clock, log):
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def settle(law, t, settings, clock, model, state, work, log):
     """Re-derive the modes in ``work.window`` from the state at an event batch
-    (time t) and log what changed. Returns 1 if the watched contact opened.
+    (time t) and log what changed.
 
     Cost: the window, not N (see :func:`_settle_window`).
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    t : float
+        Time of the event batch, kernel units.
+    settings : record of SETTINGS_DTYPE
+        What the kernel is asked to do (end time, tolerances, stops), kernel units.
+    clock : record of CLOCK_DTYPE
+        The run's clock and work totals (kernel units), advanced in place.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+    log : EventLog
+        The event log (E rows), grown by the driver.
+
+    Returns
+    -------
+    int
+        1 if the watched contact (``settings.watch``) opened, else 0.
     """
     _settle_window(law, model, state, work)
     lo, hi = work.window[0], work.window[1]
@@ -295,9 +407,28 @@ def settle(law, t, settings, clock, model, state, work, log):
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def is_moving(i, state, model):
     """Member of the moving set: sliding, or frictionless and not at rest
-    force-free (v != 0 or a closed contact). A frictionless granule at rest
-    with open contacts stays at rest until one of them closes, which is an
-    event of its moving neighbour, so it costs nothing until then."""
+    force-free (v != 0 or a closed contact).
+
+    A frictionless granule at rest with open contacts stays at rest until one
+    of them closes, which is an event of its moving neighbour, so it costs
+    nothing until then.
+
+    Parameters
+    ----------
+    i : int
+        Granule index, kernel numbering 0..N-1.
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+
+    Returns
+    -------
+    int
+        1 if granule i belongs to the moving set, else 0.
+    """
     s = state.slide[i]
     if s == 1 or s == -1:
         return 1
@@ -314,7 +445,23 @@ def is_moving(i, state, model):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def update_moving_set(lo, hi, clock, model, state):
-    """Add to or remove from the moving set the granules lo..hi whose membership changed."""
+    """Add to or remove from the moving set the granules lo..hi whose membership changed.
+
+    Parameters
+    ----------
+    lo, hi : int
+        First and last granule (kernel numbering, inclusive) to re-examine.
+    clock : record of CLOCK_DTYPE
+        The run's clock and work totals (kernel units), advanced in place.
+        ``n_moving`` is updated.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+        ``moving``, ``is_moving``, ``moving_pos`` are updated.
+    """
     in_moving, pos, mov = state.is_moving, state.moving_pos, state.moving
     nmv = clock.n_moving
     for i in range(lo, hi + 1):
@@ -335,8 +482,29 @@ def update_moving_set(lo, hi, clock, model, state):
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def all_at_rest(law, clock, model, state):
-    """Every granule at rest for good. Granules outside the moving set are stuck
-    (v = 0 exactly): only the moving set needs a look."""
+    """Every granule at rest for good.
+
+    Granules outside the moving set are stuck (v = 0 exactly): only the moving
+    set needs a look. A moving wall (or a pulse about to move) means not at rest.
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    clock : record of CLOCK_DTYPE
+        The run's clock and work totals (kernel units), advanced in place.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+
+    Returns
+    -------
+    bool
+        True when nothing can move again.
+    """
     for side in range(2):
         # a wall that moves (or will: a sine at a turning point) can set them going
         kind = model.wall_motion[side, 0]

@@ -37,13 +37,37 @@ class EventOptions(NamedTuple):
     output_every: Optional[int]  #: a frame every this many steps (None: none)
 
     def in_time_unit(self, B: float) -> "EventOptions":
-        """The options with times in units of B."""
+        """The options with their times (``t_end``, ``output_dt``) in units of ``B``.
+
+        Parameters
+        ----------
+        B : float
+            The new time unit, in the options' current time unit (seconds of the
+            scene, or its time scale); must be > 0.
+
+        Returns
+        -------
+        EventOptions
+            A copy with ``t_end / B`` and ``output_dt / B`` (None stays None);
+            the tolerances and counts unchanged.
+        """
         return self._replace(t_end=self.t_end / B,
                              output_dt=self.output_dt / B if self.output_dt is not None else None)
 
 
 def event_options(scene) -> EventOptions:
-    """The :class:`EventOptions` of a scene (``scene.run`` and ``scene.output``)."""
+    """The :class:`EventOptions` of a scene (``scene.run`` and ``scene.output``).
+
+    Parameters
+    ----------
+    scene : Scene
+        A validated scene; its times are in scene units.
+
+    Returns
+    -------
+    EventOptions
+        Its run and output settings, times in scene units.
+    """
     run, out = scene.run, scene.output
     stops = run.stop_conditions
     return EventOptions(
@@ -54,14 +78,41 @@ def event_options(scene) -> EventOptions:
 
 
 def series_order(rtol: float) -> int:
-    """Taylor order for a relative tolerance (Jorba & Zou: about -ln(tol)/2, at least 8)."""
+    """Taylor order for a relative tolerance (Jorba & Zou: about -ln(tol)/2, at least 8).
+
+    Parameters
+    ----------
+    rtol : float
+        Relative tolerance of the step control, dimensionless, > 0.
+
+    Returns
+    -------
+    int
+        The order P, ``ceil(-ln(rtol) / 2) + 2`` clipped to [8, 30].
+    """
     return int(min(30, max(8, math.ceil(-0.5 * math.log(rtol)) + 2)))
 
 
 def frame_interval(options: EventOptions, N: int) -> float:
-    """Output cadence in time (0: none). ``output.dt`` if given; for a chain longer than
-    FRAMES_AT_EVENTS_MAX_N without it (and without ``output.every``) about 1000 frames,
-    fewer for long chains (at most 1e7 values per recorded array), as Verlet's default."""
+    """Output cadence in time (0: none).
+
+    ``output.dt`` if given; for a chain longer than FRAMES_AT_EVENTS_MAX_N
+    without it (and without ``output.every``) about 1000 frames, fewer for long
+    chains (at most 1e7 values per recorded array), as Verlet's default.
+
+    Parameters
+    ----------
+    options : EventOptions
+        The run's options, times in the unit the stepper runs in.
+    N : int
+        Number of granules.
+
+    Returns
+    -------
+    float
+        Time between cadence frames, in the unit of ``options.t_end``; 0.0 when
+        frames are recorded at event batches or every ``output.every`` steps only.
+    """
     if options.output_dt is not None:
         return float(options.output_dt)
     if N <= FRAMES_AT_EVENTS_MAX_N or options.output_every is not None:

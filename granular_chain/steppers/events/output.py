@@ -11,10 +11,29 @@ from .modes import _rate
 def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous):
     """Append the frame of the current state at time ``t`` to ``frames``.
 
-    ``work_coulomb``, ``work_viscous``: friction work since the clock's totals
-    (a frame inside a step, before the step's work is added), else 0. Columns of
-    ``frames.e``: kinetic, elastic, Coulomb, viscous, dashpot work, wall work,
-    body work (sum_i f_i u_i).
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``), a compile-time constant.
+    t : float
+        Time of the frame, kernel units (units of the time scale B).
+    clock : record of CLOCK_DTYPE
+        The run's clock; its work totals are read and ``n_frames`` advanced.
+    model : ChainArrays
+        The chain's constants, kernel units, contacts (N + 1,), granules (N,).
+    state : MotionState
+        The state recorded (``u``, ``v``: (N,); ``overlap``: (N + 1,), kernel units).
+    frames : FrameBuffers
+        Buffers with room for row ``clock.n_frames``; ``x``, ``v``, ``f``
+        (F, N), ``e`` (F, 7).
+    work_coulomb, work_viscous : float
+        Friction work (energy, kernel units) since the clock's totals -- a frame
+        inside a step, before the step's work is added -- else 0.
+
+    Notes
+    -----
+    Columns of ``frames.e``: kinetic, elastic, Coulomb, viscous, dashpot work,
+    wall work, body work (sum_i f_i u_i).
     """
     N = state.u.size
     u, v, overlap = state.u, state.v, state.overlap

@@ -34,7 +34,32 @@ ClockValues = NamedTuple("ClockValues", [(n, object) for n in CLOCK_DTYPE.names]
 
 @dataclasses.dataclass
 class Packed:
-    """The kernel's records for one run, and what the result is built from."""
+    """The kernel's records for one run, and what the result is built from.
+
+    Attributes
+    ----------
+    records : EventRecords
+        The kernel's arrays (settings, clock, chain, state, workspace, frames,
+        log), kernel units (times in units of the time scale the run uses).
+    kernel : object
+        The compiled entry point (:func:`~.kernel.run_events` specialised to them).
+    law : int
+        Contact-law code (``laws.contact``).
+    coulomb, viscous : int
+        Feature codes: 1 when some granule has Coulomb (viscous) friction, else 0.
+    dissip : int
+        1: dashpots, body forces or driven walls compiled in (:func:`dissipative`), else 0.
+    options : EventOptions
+        The run's options, times in kernel units.
+    ke0 : float
+        Initial kinetic energy, kernel units.
+    projection : tuple of (float, float)
+        (steps still needed at the pace reached, that pace as a mean step in
+        kernel time units) when the run stopped because ``run.max_steps`` could
+        not reach t_end; (0.0, 0.0) otherwise.
+    out_of_steps : bool
+        Stopped by that projection (Status.MAX_STEPS).
+    """
 
     records: EventRecords
     kernel: object  #: compiled entry point for them
@@ -61,6 +86,7 @@ class Packed:
 
     @property
     def linear(self) -> bool:
+        """True for the linear contact law (n = 2), which the kernel solves exactly."""
         return self.law == LAW_LINEAR
 
     def with_records(self, records: EventRecords) -> "Packed":
@@ -77,10 +103,23 @@ class Packed:
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def linear_step_cap(model):
     """n = 2: largest step, LINEAR_STEP / L with L a bound on the eigenvalues of
-    any linear mode: drag rate plus twice the fastest contact frequency (a
-    chain's highest mode is 2 sqrt(k/m)) plus four times the fastest dashpot
-    rate c/m (a dashpot between two granules pulls both: rate 2c/m each side).
-    0 (no cap) when L = 0."""
+    any linear mode.
+
+    L is the drag rate plus twice the fastest contact frequency (a chain's
+    highest mode is 2 sqrt(k/m)) plus four times the fastest dashpot rate c/m
+    (a dashpot between two granules pulls both: rate 2c/m each side).
+
+    Parameters
+    ----------
+    model : ChainArrays
+        The chain's constants, kernel units: ``stiffness``, ``present``,
+        ``damping`` (N + 1,), ``mass``, ``gamma`` (N,).
+
+    Returns
+    -------
+    float
+        The step cap, kernel time units; 0.0 (no cap) when L = 0.
+    """
     kmax = 0.0
     first = True
     for j in range(model.present.size):
@@ -131,16 +170,39 @@ def _contacts(model: Model):
 
 
 def dissipative(model: Model) -> int:
-    """1 when the scene has dashpots, body forces or a driven wall (their code is
-    compiled in; their kinds, tensile and the wall motion are runtime values), 0
-    for an elastic chain between fixed walls (the code is left out and the
-    kernels compute what the frictionless and friction cases did, bit for bit).
-    The kernel receives it as :func:`dissipative_arg`."""
+    """1 when the scene has dashpots, body forces or a driven wall, else 0.
+
+    With 1 their code is compiled in (their kinds, tensile and the wall motion
+    are runtime values); with 0, an elastic chain between fixed walls, the code
+    is left out and the kernels compute what the frictionless and friction
+    cases did, bit for bit. The kernel receives it as :func:`dissipative_arg`.
+
+    Parameters
+    ----------
+    model : Model
+        The run's model (any units).
+
+    Returns
+    -------
+    int
+        0 or 1.
+    """
     return 0 if model.features.elastic_and_fixed else 1
 
 
 def dissipative_arg(dissip: int):
-    """The kernel's ``dissip`` argument: None (elastic, fixed walls) or 1."""
+    """The kernel's ``dissip`` argument: None (elastic, fixed walls) or 1.
+
+    Parameters
+    ----------
+    dissip : int
+        :func:`dissipative`'s code, 0 or 1.
+
+    Returns
+    -------
+    None or int
+        None for 0, else 1.
+    """
     return 1 if dissip else None
 
 
@@ -204,17 +266,45 @@ def _workspace(N: int, P: int) -> Workspace:
 
 
 def frame_buffers(rows: int, N: int) -> FrameBuffers:
-    """Empty frame buffers of ``rows`` frames."""
+    """Empty frame buffers of ``rows`` frames.
+
+    Parameters
+    ----------
+    rows : int
+        Frames the buffers hold, F.
+    N : int
+        Number of granules.
+
+    Returns
+    -------
+    FrameBuffers
+        Zeroed ``t`` (F,), ``x``, ``v``, ``f`` (F, N), ``e`` (F, 7).
+    """
     return FrameBuffers(t=np.zeros(rows), x=np.zeros((rows, N)), v=np.zeros((rows, N)),
                         f=np.zeros((rows, N)), e=np.zeros((rows, 7)))
 
 
 def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packed:
     """The kernel's records for a run of ``model`` with ``options`` (kernel units):
-    the state, the settings and the work buffers. With ``stream`` the frame buffers
-    get a size set by N alone (STREAM_FRAMES rows, fewer for long chains: the
-    driver empties them between kernel calls) instead of room for the run's whole
-    cadence."""
+    the state, the settings and the work buffers.
+
+    Parameters
+    ----------
+    model : Model
+        The run's model, already in the units the kernel runs in.
+    options : EventOptions
+        Its run and output options, times in those units.
+    stream : bool, optional
+        With True the frame buffers get a size set by N alone (STREAM_FRAMES
+        rows, fewer for long chains: the driver empties them between kernel
+        calls) instead of room for the run's whole cadence.
+
+    Returns
+    -------
+    Packed
+        The records, the compiled kernel for the run's features and the
+        initial kinetic energy (kernel units).
+    """
     feat = model.features
     N = model.count
     law = int(feat.law)

@@ -22,6 +22,28 @@ def build_result(packed: Packed, code, wall, model: Model, tscale: float, run=No
     Without ``run`` every frame is in the kernel's buffers (kernel units); with
     it the frames are those its log kept (the scene's units) and the buffers
     hold the last one (its final state, kernel units, as without it).
+
+    Parameters
+    ----------
+    packed : Packed
+        The run's records after the last kernel call.
+    code : int
+        The code the driver ended with (a :class:`~granular_chain.codes.Status`).
+    wall : float
+        Wall-clock time of the run, seconds.
+    model : Model
+        The model the kernel ran (kernel units).
+    tscale : float
+        Scene time units per kernel time unit (1.0 when the run was not scaled);
+        used for times in messages.
+    run : EventRun, optional
+        The streamed run whose log kept the frames (None: not streamed).
+
+    Returns
+    -------
+    Result
+        Times, positions, velocities and forces in kernel units unless streamed
+        (then scene units); ``status`` and ``message`` include the ledger verdict.
     """
     clock = packed.clock
     fr_t, fr_x, fr_v, fr_f, fr_e = packed.records.frames
@@ -105,9 +127,7 @@ EXACT_LEDGER_ULPS = 8.0
 
 def ledger_tolerance(packed: Packed, e0: float, work: float, clock=None, settings=None) -> float:
     """The largest energy-ledger error (relative to the initial energy ``e0``) the
-    event stepper promises for the run held in ``packed`` (kernel units);
-    ``work`` is the energy dissipated by friction over the run; ``clock``,
-    ``settings``: snapshots of its records already read (read here if None).
+    event stepper promises for the run held in ``packed`` (kernel units).
 
     * n = 2 (exact modes): ``EXACT_LEDGER_ULPS * eps * (steps + batches + N + 1)``.
     * other n: each step keeps the last two terms of every velocity's and
@@ -120,6 +140,25 @@ def ledger_tolerance(packed: Packed, e0: float, work: float, clock=None, setting
       counted as two steps; the friction work, integrated from the series of v,
       is off by at most ``2 rtol`` of itself. At worst linearly accumulated:
       ``2 [(steps + 2 batches + 1) (max(2, n) rtol + 2 atol / V) + 2 rtol work / e0]``.
+
+    Parameters
+    ----------
+    packed : Packed
+        The run's records.
+    e0 : float
+        Initial mechanical energy, kernel units.
+    work : float
+        Energy dissipated by friction (and dashpots, walls, body forces) over the
+        run, kernel units.
+    clock : ClockValues, optional
+        Snapshot of the clock record already read (read here if None).
+    settings : SettingsValues, optional
+        Snapshot of the settings record already read (read here if None).
+
+    Returns
+    -------
+    float
+        The promised error, dimensionless (relative to ``e0``).
     """
     clock = packed.clock if clock is None else clock
     settings = packed.settings if settings is None else settings

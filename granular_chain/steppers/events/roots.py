@@ -96,6 +96,25 @@ def first_root(c, P, sgn, shift, h):
     g < 0 is the valid side of the mode. Returns inf when g stays negative on
     [0, h] (proved by a bound, or by sampling plus a check of every interior
     maximum for a grazing touch).
+
+    Parameters
+    ----------
+    c : ndarray, shape (>= P + 1,)
+        Taylor coefficients of the event function's series in the step time
+        (kernel units of its quantity: overlap, velocity or force).
+    P : int
+        Taylor order (last coefficient c[P]).
+    sgn : float
+        +1.0 or -1.0: the sign the series is taken with, dimensionless.
+    shift : float
+        Level subtracted, in the units of the series' quantity (0 for a sign change).
+    h : float
+        End of the interval searched, kernel time units.
+
+    Returns
+    -------
+    float
+        The root, kernel time units in [0, h], or ``math.inf`` when there is none.
     """
     g0 = sgn * c[0] - shift
     bound = 0.0
@@ -192,9 +211,41 @@ def _switch_on_overlap(P, tol_v, j, model, state, work):
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def contact_candidates(linear, P, h, tol_v, na, model, state, work):
-    """Roots of every contact's event functions within [0, h]: opening (and the
-    force switched on again, and the centres meeting) of a closed contact,
-    closing of an open one. Returns (earliest root or inf, candidates written)."""
+    """Roots of every contact's event functions within [0, h].
+
+    Opening (and the force switched on again, and the centres meeting) of a
+    closed contact, closing of an open one; each is written to
+    ``work.cand_kind/cand_index/cand_root`` from index 0.
+
+    Parameters
+    ----------
+    linear : bool
+        True for the linear law (n = 2), whose series are exact to roundoff.
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    h : float
+        Trial step, kernel time units.
+    tol_v : float
+        Velocity tolerance, kernel units (length / time in units of the scene's
+        length and time scale).
+    na : int
+        Number of the step's contacts, ``work.active[:na]``.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+
+    Returns
+    -------
+    tau_e : float
+        Earliest root, kernel time units (``math.inf``: none in [0, h]).
+    ncand : int
+        Number of candidates written.
+    """
     D = work.d_series
     tau_e = math.inf
     ncand = 0
@@ -223,9 +274,44 @@ def contact_candidates(linear, P, h, tol_v, na, model, state, work):
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def friction_candidates(P, h, rtol, nm, nc, ncand, tau_e, model, state, work):
-    """Coulomb friction's roots within [0, h]: a sliding granule stopping, a
-    stuck one (``work.stuck[:nc]``) whose spring force reaches its static
-    threshold. Returns (earliest root so far, candidates written)."""
+    """Coulomb friction's roots within [0, h].
+
+    A sliding granule stopping, a stuck one (``work.stuck[:nc]``) whose spring
+    force reaches its static threshold; appended to the candidate lists after
+    the first ``ncand``.
+
+    Parameters
+    ----------
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    h : float
+        Trial step, kernel time units.
+    rtol : float
+        Relative tolerance of the step control, dimensionless.
+    nm : int
+        Size of the moving set, ``state.moving[:nm]``.
+    nc : int
+        Number of stuck granules next to the step's contacts, ``work.stuck[:nc]``.
+    ncand : int
+        Candidates already written (by :func:`contact_candidates`).
+    tau_e : float
+        Earliest root so far, kernel time units (``math.inf``: none).
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+
+    Returns
+    -------
+    tau_e : float
+        Earliest root so far, kernel time units (``math.inf``: none).
+    ncand : int
+        Candidates written in all.
+    """
     Q = work.row
     V = work.v_series
     slide, mass, eta_s = state.slide, model.mass, model.eta_static

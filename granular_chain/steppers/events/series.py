@@ -24,7 +24,23 @@ from ...laws.contact import LAW_LINEAR, contact_force
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def horner(c, P, x):
-    """sum_{k<=P} c_k x^k."""
+    """sum_{k<=P} c_k x^k.
+
+    Parameters
+    ----------
+    c : ndarray, shape (>= P + 1,)
+        Taylor coefficients c_k of a series in the step time (units of the series'
+        quantity per kernel time unit ** k).
+    P : int
+        Order: the last coefficient used is c[P].
+    x : float
+        Time from the step's start, kernel units.
+
+    Returns
+    -------
+    float
+        The series' value at ``x``, in the units of the quantity.
+    """
     s = c[P]
     for k in range(P - 1, -1, -1):
         s = s * x + c[k]
@@ -33,7 +49,24 @@ def horner(c, P, x):
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def horner_d(c, P, x):
-    """Value and derivative of sum c_k x^k."""
+    """Value and derivative of sum c_k x^k.
+
+    Parameters
+    ----------
+    c : ndarray, shape (>= P + 1,)
+        Taylor coefficients c_k of a series in the step time (units of the series'
+        quantity per kernel time unit ** k).
+    P : int
+        Order: the last coefficient used is c[P].
+    x : float
+        Time from the step's start, kernel units.
+
+    Returns
+    -------
+    value, derivative : float
+        The series and its derivative in ``x`` (units of the quantity, and of
+        the quantity per kernel time unit).
+    """
     s = c[P]
     d = 0.0
     for k in range(P - 1, -1, -1):
@@ -44,7 +77,23 @@ def horner_d(c, P, x):
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def increment(c, P, x):
-    """sum_{k>=1} c_k x^k (the change over the step, without cancelling c_0)."""
+    """sum_{k>=1} c_k x^k (the change over the step, without cancelling c_0).
+
+    Parameters
+    ----------
+    c : ndarray, shape (>= P + 1,)
+        Taylor coefficients c_k of a series in the step time (units of the series'
+        quantity per kernel time unit ** k).
+    P : int
+        Order: the last coefficient used is c[P].
+    x : float
+        Time from the step's start, kernel units.
+
+    Returns
+    -------
+    float
+        ``horner(c, P, x) - c[0]`` computed without the cancellation, units of the quantity.
+    """
     s = c[P]
     for k in range(P - 1, 0, -1):
         s = s * x + c[k]
@@ -53,8 +102,33 @@ def increment(c, P, x):
 
 @numba.njit(inline="always", cache=True, _nrt=False)
 def force_term(linear, on, k_c, n_c, Dj, Fj, k):
-    """k-th Taylor coefficient of a contact force k_c delta^(n_c - 1) from the overlap's
-    coefficients Dj and the force's lower ones Fj (power recurrence); 0 when switched off."""
+    """k-th Taylor coefficient of a contact force k_c delta^(n_c - 1).
+
+    Computed from the overlap's coefficients Dj and the force's lower ones Fj
+    (power recurrence); 0 when switched off.
+
+    Parameters
+    ----------
+    linear : bool
+        True for n = 2 (the coefficient is k_c Dj[k]).
+    on : bool
+        Whether the contact's force is switched on (``work.force_on``).
+    k_c : float
+        The contact's force coefficient k, kernel units (force / length^(n - 1)).
+    n_c : float
+        The contact's potential exponent n, dimensionless.
+    Dj : ndarray, shape (>= k + 1,)
+        Taylor coefficients of the overlap, kernel units (length / time^i).
+    Fj : ndarray, shape (>= k,)
+        The force's coefficients 0..k-1 already computed, kernel units (force / time^i).
+    k : int
+        Index of the coefficient wanted, k >= 1; Dj[0] must be nonzero unless linear.
+
+    Returns
+    -------
+    float
+        The force's k-th coefficient, kernel units (force / time^k).
+    """
     if not on:
         return 0.0
     if linear:
@@ -96,7 +170,40 @@ def _switch_forces(law, tol_v, na, model, state, work):
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
     """Taylor coefficients to order P of the moving granules' u, v and of the
-    step's contacts' overlaps and forces (``work.*_series``)."""
+    step's contacts' overlaps and forces (``work.*_series``).
+
+    Parameters
+    ----------
+    law : int
+        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    tol_v : float
+        Velocity tolerance, kernel units (length / time in units of the scene's
+        length and time scale).
+    nm : int
+        Size of the moving set, ``state.moving[:nm]``.
+    na : int
+        Number of the step's contacts, ``work.active[:na]``.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+
+    Notes
+    -----
+    Fills rows ``state.moving[:nm]`` of ``work.u_series`` and ``work.v_series``
+    and rows ``work.active[:na]`` of ``work.d_series``, ``work.f_series`` and
+    ``work.force_on``; returns nothing.
+    """
     linear = law == LAW_LINEAR
     N = state.v.size
     mov, act, in_moving, slide = state.moving, work.active, state.is_moving, state.slide
@@ -146,6 +253,33 @@ def step_size(linear, P, rtol, atol, h, nm, na, state, work):
     their truncation error is ~P tol/h (V only carries their integral), which
     put slip times off by 4e-12 at rtol 1e-12 and split one slip into a
     spurious slip/stop/slip triple.
+
+    Parameters
+    ----------
+    linear : bool
+        True for the linear law (n = 2), whose series are exact to roundoff.
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    rtol : float
+        Relative tolerance, dimensionless.
+    atol : float
+        Absolute tolerance, kernel units of each row's quantity (ignored for n = 2).
+    h : float
+        Largest step allowed, kernel time units.
+    nm : int
+        Size of the moving set, ``state.moving[:nm]``.
+    na : int
+        Number of the step's contacts, ``work.active[:na]``.
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+
+    Returns
+    -------
+    float
+        The step, kernel time units, 0 < step <= ``h``.
     """
     nrow = nm + na
     if not linear:
@@ -214,6 +348,33 @@ def ledger_increment(coulomb, viscous, P, nm, model, state, work, tau):
     out terms the velocity's step control never sees (v^2 decays twice as fast),
     and a free granule under drag (n = 5/2, c h = 1.5 per step) lost 1.7e-10 of
     the energy in 16 steps.
+
+    Parameters
+    ----------
+    coulomb : int
+        Compile-time feature code: nonzero when some granule has Coulomb friction.
+    viscous : int
+        Compile-time feature code: nonzero when some granule has viscous friction.
+    P : int
+        Taylor order; series arrays have P + 1 columns.
+    nm : int
+        Size of the moving set, ``state.moving[:nm]``.
+    model : ChainArrays
+        The chain's constants in kernel numbering and units: granules (N,),
+        contacts (N + 1,).
+    state : MotionState
+        The state advanced in place: ``u``, ``v`` (N,), ``overlap`` (N + 1,),
+        kernel units; modes ``closed`` (N + 1,), ``slide`` (N,).
+    work : Workspace
+        Scratch of the step: series (rows, P + 1 or P + 2), candidate lists, flags.
+    tau : float
+        Time from the step's start, kernel units, 0 <= tau <= step.
+
+    Returns
+    -------
+    coulomb, viscous : float
+        Work of Coulomb and of viscous friction over [0, tau], energy in kernel
+        units (>= 0 for a granule sliding with the sign of its velocity).
     """
     U, V, slide, eta, gamma = work.u_series, work.v_series, state.slide, model.eta, model.gamma
     wc = 0.0
