@@ -336,9 +336,10 @@ def remove_files(folder: Path, files) -> None:
     """Remove the listed files (paths relative to ``folder``), then the folders that
     held them once they are empty, up to ``folder`` itself.
 
-    A listed path that is absolute or climbs out with ``..`` is skipped (a marker
-    edited by hand cannot reach outside its folder); anything not listed stays, and
-    the folders that hold it.
+    A listed path that is absolute, climbs out with ``..`` or passes through a link
+    to another folder is skipped (a marker edited by hand, or a subfolder replaced by
+    a link, cannot reach outside the run folder); anything not listed stays, and the
+    folders that hold it.
 
     Parameters
     ----------
@@ -348,12 +349,15 @@ def remove_files(folder: Path, files) -> None:
         Paths relative to ``folder`` (as listed in its marker).
     """
     folder = Path(folder)
+    inside = folder.resolve()
     emptied = {folder}
     for rel in files:
         rel = Path(rel)
         if rel.is_absolute() or ".." in rel.parts:
             continue
         target = folder / rel
+        if inside not in target.parent.resolve().parents and target.parent.resolve() != inside:
+            continue  # a listed subfolder replaced by a link to elsewhere: not the engine's
         if target.is_file() or target.is_symlink():
             target.unlink()
             emptied.update(p for p in target.parents if folder in p.parents)

@@ -304,3 +304,17 @@ def test_remove_files_stays_inside_its_folder_and_keeps_unlisted_folders(tmp_pat
     remove_files(run, ["frames/f0.vtp", "summary.json", "../outside.txt", str(outside)])
     assert outside.read_text() == "user"
     assert sorted(p.name for p in run.iterdir()) == ["mine"]
+
+
+def test_remove_files_does_not_follow_a_linked_subfolder(tmp_path):
+    """A listed subfolder replaced by a link to the user's folder: its files stay."""
+    from granular_chain.rundir import remove_files
+    run, elsewhere = tmp_path / "run", tmp_path / "user_data"
+    run.mkdir()
+    elsewhere.mkdir()
+    (elsewhere / "f0.vtp").write_text("user")
+    (run / "vtk").symlink_to(elsewhere, target_is_directory=True)
+    (run / "summary.json").write_text("engine")
+    remove_files(run, ["vtk/f0.vtp", "summary.json"])
+    assert (elsewhere / "f0.vtp").read_text() == "user"
+    assert not (run / "summary.json").exists()
