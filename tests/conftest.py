@@ -1,8 +1,17 @@
 """Shared helpers for the test-suite."""
 
 import math
+import os
 
 import numpy as np
+from hypothesis import settings
+
+# The suite draws the same examples on every run (a check that lands must not
+# depend on luck); HYPOTHESIS_PROFILE=explore draws fresh ones to look for new
+# failures, which then join the tests as @example.
+settings.register_profile("fixed", derandomize=True, print_blob=True)
+settings.register_profile("explore", derandomize=False, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fixed"))
 
 
 def fitted_order(h, err):

@@ -36,7 +36,7 @@ from ...codes import EventKind
 from ...laws.contact import LAW_LINEAR, contact_force
 from ...laws.damping import DAMPING_LINEAR
 from ...laws.wall_motion import WALL_PULSE, WALL_SINE, WALL_VELOCITY, wall_speed
-from .roots import CENTRES_MEET, SWITCH_ON, first_root
+from .roots import CENTRES_MEET, SWITCH_ON, first_root, switch_on_overlap
 from .series import force_term
 
 #: Candidate kind: a non-tensile contact's total force reaches zero (it opens, overlap > 0).
@@ -316,19 +316,13 @@ def _force_root(P, h, sgn, j, work):
 def _switch_on(P, h, tol_v, j, model, state, work):
     """Root of a closed contact whose spring is off reaching the overlap ``don`` at
     which it is switched on, inf when none: the rule of
-    :func:`.roots._switch_on_overlap` with the overlap rate counting a moving
+    :func:`.roots.switch_on_overlap` with the overlap rate counting a moving
     wall's velocity (a wall driven into a granule at rest closes a contact that
     no granule's velocity shows), and a viscoelastic dashpot's impulse
     ``A k d^(n-1)`` counting too."""
     D = work.d_series
     n, k = model.exponent[j], model.stiffness[j]
-    w = abs(contact_rate(model, state, j))
-    don = -1.0
-    if D[j, 1] != 0.0:
-        don = 1.5 * (0.1 * n * w * tol_v / k) ** (1.0 / n)
-    elif D[j, 2] > 0.0:
-        don = (0.1 * tol_v * (2.0 * n - 1.0) * math.sqrt(D[j, 2])
-               / k) ** (1.0 / (n - 0.5))
+    don = switch_on_overlap(P, tol_v, contact_rate(model, state, j), n, k, D[j])
     if model.damping[j] != 0.0 and model.dashpot[0] != DAMPING_LINEAR:
         d2 = 1.5 * (0.1 * tol_v / (model.damping[j] * k)) ** (1.0 / (n - 1.0))
         don = d2 if don < 0.0 else min(don, d2)

@@ -386,11 +386,46 @@ def ledger_increment(coulomb, viscous, P, nm, model, state, work, tau):
                 wc += eta[i] * slide[i] * increment(U[i], P, tau)
         if viscous:
             if gamma[i] > 0.0:
-                s = 0.0
-                for kk in range(2 * P, -1, -1):
-                    acc = 0.0
-                    for a in range(max(0, kk - P), min(kk, P) + 1):
-                        acc += V[i, a] * V[i, kk - a]
-                    s = s * tau + acc / (kk + 1)
-                wv += gamma[i] * s * tau
+                wv += gamma[i] * square_integral(V[i], P, tau)
     return wc, wv
+
+
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
+def square_integral(c, P, tau):
+    """Integral over [0, tau] of (sum_{k<=P} c_k x^k)^2, all 2P + 1 terms.
+
+    The products c_a c_b overflow when the step is far shorter than the
+    series' radius (a Hertz force from an overlap of 4e-33 has coefficients
+    near 1e300; a granule's stop then ended the step at 1e-98 and the ledger
+    read NaN): then the sum is taken again over the coefficients scaled by
+    tau^k, the same value without the overflow.
+
+    Parameters
+    ----------
+    c : ndarray, shape (>= P + 1,)
+        Taylor coefficients of the integrand's root (a velocity), kernel units.
+    P : int
+        Order: the last coefficient used is c[P].
+    tau : float
+        Upper limit, kernel time units.
+
+    Returns
+    -------
+    float
+        The integral, in the units of c^2 times time.
+    """
+    s = 0.0
+    for kk in range(2 * P, -1, -1):
+        acc = 0.0
+        for a in range(max(0, kk - P), min(kk, P) + 1):
+            acc += c[a] * c[kk - a]
+        s = s * tau + acc / (kk + 1)
+    if math.isfinite(s):
+        return s * tau
+    s = 0.0
+    for kk in range(2 * P + 1):
+        acc = 0.0
+        for a in range(max(0, kk - P), min(kk, P) + 1):
+            acc += (c[a] * tau ** a) * (c[kk - a] * tau ** (kk - a))
+        s += acc / (kk + 1)
+    return s * tau
