@@ -386,13 +386,13 @@ def ledger_increment(coulomb, viscous, P, nm, model, state, work, tau):
                 wc += eta[i] * slide[i] * increment(U[i], P, tau)
         if viscous:
             if gamma[i] > 0.0:
-                wv += gamma[i] * square_integral(V[i], P, tau)
+                wv += square_integral(gamma[i], V[i], P, tau)
     return wc, wv
 
 
 @numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
-def square_integral(c, P, tau):
-    """Integral over [0, tau] of (sum_{k<=P} c_k x^k)^2, all 2P + 1 terms.
+def square_integral(weight, c, P, tau):
+    """Integral over [0, tau] of weight * (sum_{k<=P} c_k x^k)^2, all 2P + 1 terms.
 
     The products c_a c_b overflow when the step is far shorter than the
     series' radius (a Hertz force from an overlap of 4e-33 has coefficients
@@ -402,6 +402,8 @@ def square_integral(c, P, tau):
 
     Parameters
     ----------
+    weight : float
+        Constant factor (a drag coefficient gamma), kernel units.
     c : ndarray, shape (>= P + 1,)
         Taylor coefficients of the integrand's root (a velocity), kernel units.
     P : int
@@ -412,7 +414,7 @@ def square_integral(c, P, tau):
     Returns
     -------
     float
-        The integral, in the units of c^2 times time.
+        The integral, in the units of weight c^2 times time (an energy).
     """
     s = 0.0
     for kk in range(2 * P, -1, -1):
@@ -421,11 +423,11 @@ def square_integral(c, P, tau):
             acc += c[a] * c[kk - a]
         s = s * tau + acc / (kk + 1)
     if math.isfinite(s):
-        return s * tau
+        return weight * s * tau
     s = 0.0
     for kk in range(2 * P + 1):
         acc = 0.0
         for a in range(max(0, kk - P), min(kk, P) + 1):
             acc += (c[a] * tau ** a) * (c[kk - a] * tau ** (kk - a))
         s += acc / (kk + 1)
-    return s * tau
+    return weight * s * tau
