@@ -613,14 +613,6 @@ class Scene(_Strict):
             raise _FieldProblem("output.events", "the Verlet stepper does not log events for "
                                 "scenes with contacts.damping, body_force or a moving wall: "
                                 "leave it out, or use run.stepper: event (which logs every event)")
-        fr = self.granules.friction
-        coulomb = any(np.any(_array(v, n) > 0) for v in (fr.kinetic, fr.static) if v is not None)
-        if damping is not None and coulomb and self.run.stepper == "event":
-            # A granule stuck at rest when a dashpot's force jumps on chatters between
-            # stick and slip at the same instant (a Zeno stop at the first contact).
-            raise _FieldProblem("contacts.damping", "the event stepper does not combine "
-                                "contact dashpots with kinetic (Coulomb) friction: use "
-                                "run.stepper: verlet, or leave one of them out")
         body = self.body_force
         if body is not None and isinstance(body.force, list) and len(body.force) != n:
             raise _FieldProblem("body_force.force", f"has {len(body.force)} values but "

@@ -233,10 +233,6 @@ EXTREMES = [
      ["contacts.damping.coefficient", "needs coefficient"]),
     ("damping-events-verlet", {"contacts.damping": {"model": "linear", "coefficient": 0.1},
                                "output.events": True}, ["output.events", "run.stepper: event"]),
-    ("damping-coulomb-event", {"contacts.damping": {"model": "linear", "coefficient": 0.1},
-                               "granules.friction": {"kinetic": 0.1}, "run.stepper": "event",
-                               "run.dt": _DELETE},
-     ["contacts.damping", "run.stepper: verlet"]),
     ("wall-two-motions", {"walls.left": {"motion": {"velocity": 1.0, "pulse": {
         "velocity": 1.0, "duration": 1.0}}}}, ["walls.left.motion", "exactly one"]),
     ("body-force-length", {"body_force": {"force": [1.0, 2.0]}},

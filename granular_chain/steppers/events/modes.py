@@ -26,7 +26,15 @@ def _contact_force(law, model, state, j):
     if model.present[j] == 0 or state.closed[j] == 0:
         return 0.0
     if model.damping[j] != 0.0:
-        return damped_contact_force(law, model.dashpot[0], model.dashpot[1], state.overlap[j],
+        d = state.overlap[j]
+        if d == 0.0:
+            # Closed at zero overlap (closing now, w >= 0): the dashpot's force
+            # is its limit from d > 0, c w for a linear dashpot (A k w for a
+            # viscoelastic one at n = 2), which the law (0 at d <= 0, an open
+            # contact for Verlet) leaves out. Without it a stuck granule met by
+            # the jump read F = 0 and slipped backwards (Zeno at first contact).
+            d = 5e-324
+        return damped_contact_force(law, model.dashpot[0], model.dashpot[1], d,
                                     _rate(state, j), model.stiffness[j], model.exponent[j],
                                     model.damping[j])
     return contact_force(law, state.overlap[j], model.stiffness[j], model.exponent[j])

@@ -434,7 +434,7 @@ def forced_chunk(features, chain, timestep, state, call, forcing, fstate):
     for step in range(call.n_steps):
         t0 = fstate.clock[0] + fstate.clock[1] * dt
         t1 = fstate.clock[0] + (fstate.clock[1] + 1.0) * dt
-        was = fstate.delta[watched] > 0.0 if watched < fstate.delta.size - 1 else False
+        was = _touching(predict, watched, fstate)
         wc, wv = opening_half(features, chain, timestep, state, fstate, predict, counts)
         n_hard = contacts_after_drift(features, chain, timestep, state, forcing, fstate,
                                       (t0, t1), counts)
@@ -447,12 +447,26 @@ def forced_chunk(features, chain, timestep, state, call, forcing, fstate):
         if overlap_reached(chain, forcing, fstate, n_hard):
             return step + 1, OVERLAP
         if forcing.stop_mode & STOP_ON_SEPARATION:
-            if was and not fstate.delta[watched] > 0.0:
+            if was and not _touching(predict, watched, fstate):
                 return step + 1, SEPARATED
         if forcing.stop_mode & STOP_ON_REST:
             if at_rest(features, chain, timestep, state, forcing, fstate):
                 return step + 1, AT_REST
     return call.n_steps, CHUNK_DONE
+
+
+@numba.njit(inline="always", cache=True)
+def _touching(predict, j, fstate):
+    """Whether contact j (a granule pair) still acts: overlap > 0, and for a
+    non-tensile dashpot (``predict``) total force > 0 too, the contact's end the
+    event stepper locates. (Between the force's zero and the overlap's, friction
+    still slows the granules: reporting at the overlap's zero gave velocities
+    0.03 away from the event stepper's.)"""
+    if j >= fstate.delta.size - 1:
+        return False
+    if predict:
+        return fstate.delta[j] > 0.0 and fstate.force[j] > 0.0
+    return fstate.delta[j] > 0.0
 
 
 @numba.njit(cache=True)
