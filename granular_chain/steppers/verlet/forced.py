@@ -74,9 +74,9 @@ import numba
 import numpy as np
 
 from ...codes import Pause, Status
-from ...laws.contact import contact_force
-from ...laws.damping import (DAMPING_NONE, damped_contact_force, dashpot_force,
-                             dashpot_primitive)
+from ...laws.contact import LAW_LINEAR, contact_force
+from ...laws.damping import (DAMPING_LINEAR, DAMPING_NONE, DAMPING_VISCOELASTIC,
+                             damped_contact_force, dashpot_force, dashpot_primitive)
 from ...laws.friction import coulomb_kick, free_kick, viscous_drift
 from ...laws.wall_motion import wall_displacement, wall_speed
 from .event_log import CLOSE, OPEN, SLIP, STOP
@@ -170,6 +170,10 @@ class ForcedState(NamedTuple):
     clock : ndarray, shape (2,)
         (t_base, steps since t_base): a step starts at t_base + steps dt
         (t_base in units of time of the model; the count a float).
+    after_jump : ndarray, shape (N + 1,)
+        Work array: for a contact that closed in this step with a jump of its
+        dashpot's force (Coulomb scenes only), the fraction of the step after
+        the closing (linear interpolation of the overlap); 0 otherwise.
     """
 
     delta: np.ndarray
@@ -181,6 +185,7 @@ class ForcedState(NamedTuple):
     v_pred: np.ndarray
     work: np.ndarray
     clock: np.ndarray
+    after_jump: np.ndarray
 
 
 @numba.njit(inline="always", cache=True)
@@ -220,6 +225,54 @@ def kick(coulomb, v, F, eta, eta_s, inv_m, h):
         return v1, w1, code
     v1, w1, w2, code = free_kick(v, F, inv_m, h)
     return v1, 0.0, 0
+
+
+@numba.njit(inline="always", cache=True)
+def jumps(features):
+    """Whether a contact's force can jump when it closes in a Coulomb scene: a
+    linear dashpot (c w), or a viscoelastic one at n = 2 (A k w)."""
+    return features.coulomb != 0 and (features.damping == DAMPING_LINEAR or (
+        features.damping == DAMPING_VISCOELASTIC and features.law == LAW_LINEAR))
+
+
+@numba.njit(inline="always", cache=True)
+def kick_after_jump(N, i, G, body, after, eta, eta_s, inv_m, dt):
+    """Closing kick of a granule at rest (held through the opening half) next to a
+    contact that closed in this step with a jump of its force.
+
+    The opening half kick decided stick or slip from the force at the step's
+    start, before the jump; a slip from the closing on is then a kick of the
+    remaining time r = (fraction after the jump) dt, not dt/2, under the jumping
+    contacts' impulse (dt/2) G spread over it and the other forces. Without
+    this the granule lost a friction impulse eta (dt/2 - r) at each closing:
+    Verlet with Coulomb friction and a linear dashpot was first order.
+
+    Parameters
+    ----------
+    N, i : int
+        Granules, and this granule's index.
+    G : ndarray, shape (N + 1,)
+        Contacts' forces of the closing half kick (force).
+    body : float
+        The granule's body force (force).
+    after : ndarray, shape (N + 1,)
+        Fraction of the step after each contact's closing with a jump (0: none).
+    eta, eta_s, inv_m : float
+        Kinetic friction, static threshold (force), 1/mass.
+    dt : float
+        Step (time).
+
+    Returns
+    -------
+    (v_new, w_coulomb, code)
+        As :func:`kick`.
+    """
+    h = 0.5 * dt
+    r = dt * max(after[i], after[i + 1])
+    left = G[i] * (h / r) if after[i] > 0.0 else G[i]
+    right = G[i + 1] * (h / r) if after[i + 1] > 0.0 else G[i + 1]
+    v1, w1, w2, code = coulomb_kick(0.0, left - right + body, eta, eta_s, inv_m, r)
+    return v1, w1, code
 
 
 @numba.njit(inline="always", cache=True)
@@ -282,6 +335,7 @@ def contacts_after_drift(features, chain, timestep, state, forcing, fstate, time
     d0, k, n, coef = forcing.d0, forcing.k, forcing.n, forcing.coefficient
     delta, spring, dashpot, phis = fstate.delta, fstate.spring, fstate.dashpot, fstate.phi
     force, closing, v_pred = fstate.force, fstate.closing, fstate.v_pred
+    after = fstate.after_jump
     tensile, fcap = forcing.tensile, chain.fcap
     dt = timestep.dt
     h = 0.5 * dt
@@ -306,6 +360,8 @@ def contacts_after_drift(features, chain, timestep, state, forcing, fstate, time
         J = h * (force[c] + G)
         if features.damping != DAMPING_NONE:
             diss += h * ((force[c] - spring[c]) + (G - S)) * (d - delta[c]) / dt
+        if jumps(features):
+            after[c] = d / (d - delta[c]) if (delta[c] <= 0.0 < d) else 0.0
         if 0 < c < N:
             n_hard += 1 if S >= fcap else 0
             was = 1 if delta[c] > 0.0 else 0
@@ -331,15 +387,19 @@ def contacts_after_drift(features, chain, timestep, state, forcing, fstate, time
 def closing_half(features, chain, timestep, state, forcing, fstate, counts):
     """Closing half kick of every granule under its contacts' closing forces and its
     body force; the Coulomb work."""
-    v, G, body = state.v, fstate.closing, forcing.body
+    v, G, body, after = state.v, fstate.closing, forcing.body, fstate.after_jump
     eta, eta_s, inv_m = chain.eta, chain.eta_static, chain.inv_mass
     h = 0.5 * timestep.dt
     wc = 0.0
     n_stop = 0
     n_slip = 0
     for i in range(v.size):
-        v1, w1, code = kick(features.coulomb, v[i], G[i] - G[i + 1] + body[i], eta[i], eta_s[i],
-                            inv_m[i], h)
+        if jumps(features) and v[i] == 0.0 and (after[i] > 0.0 or after[i + 1] > 0.0):
+            v1, w1, code = kick_after_jump(v.size, i, G, body[i], after, eta[i], eta_s[i],
+                                           inv_m[i], timestep.dt)
+        else:
+            v1, w1, code = kick(features.coulomb, v[i], G[i] - G[i + 1] + body[i], eta[i],
+                                eta_s[i], inv_m[i], h)
         wc += w1
         n_stop += code & 1
         n_slip += (code >> 1) & 1

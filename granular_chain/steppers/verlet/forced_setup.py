@@ -84,7 +84,7 @@ def forced_records(model: Model, state, stop_mode: int):
                       dtype=np.int64),
         tensile=int(feat.tensile), stop_mode=int(stop_mode))
     fstate = ForcedState(*(np.zeros(N + 1) for _ in range(6)), np.zeros(N), np.zeros(2),
-                         np.zeros(2))
+                         np.zeros(2), np.zeros(N + 1))
     args = (features, state, forcing, fstate, 0.0)
     specialised(forced_start, args, (0,))(*args)
     return features, forcing, fstate
