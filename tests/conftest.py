@@ -26,3 +26,13 @@ def paper_sec2a(eta):
     v1 = -eta * math.pi / (2 * math.sqrt(2))
     v2 = math.sqrt(1 - eta * eta) + v1
     return v1, v2, (v1 * v1 + v2 * v2)  # E/E0 = (v1^2 + v2^2)/2 / (1/2)
+
+
+#: Tests that take a minute or more on a cold numba cache (CI, --durations): run
+#: first, so that no worker is left running one of them alone at the end.
+SLOW_FIRST = ("test_docs_site.py::test_site_builds_strictly",
+              "test_collision_map.py::test_coulomb_grid_n2_bitwise")
+
+
+def pytest_collection_modifyitems(config, items):
+    items.sort(key=lambda item: not any(s in item.nodeid for s in SLOW_FIRST))
