@@ -197,10 +197,17 @@ def _signal_child(code, args, sig, delay=0.3):
 @pytest.mark.parametrize("kind, sig", [("drag", signal.SIGINT), ("frictionless", signal.SIGTERM),
                                        ("coulomb", signal.SIGINT)])
 def test_signal_stops_event_run_within_a_second(kind, sig):
-    # The signal comes 1 s into the long run, when it is stepping for sure: with
-    # 0.3 s it could land in the run's setup on a loaded machine (CI: 1.03 s).
-    out, elapsed = _signal_child(CHILD, [kind], sig, delay=1.0)
-    assert elapsed < 1.0  # measured 0.02-0.08 s
+    # The signal comes 1 s into the long run, when it is stepping for sure.
+    # Measured 0.02-0.08 s; on a CI machine busy compiling kernels in two other
+    # processes, 1.03 and 1.17 s once each in about ten runs of the suite: a
+    # second child then decides (a deaf run fails both).
+    times = []
+    for _ in range(2):
+        out, elapsed = _signal_child(CHILD, [kind], sig, delay=1.0)
+        times.append(elapsed)
+        if elapsed < 1.0:
+            break
+    assert min(times) < 1.0, times
     assert out["status"] == "INTERRUPTED" and out["signal"] == int(sig)
     assert sig.name in out["message"] and out["t_final"] > 0 and out["frames"] >= 2
 
