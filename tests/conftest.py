@@ -30,16 +30,9 @@ def paper_sec2a(eta):
 
 #: Tests that take a minute or more on a cold numba cache (CI, --durations): run
 #: first, so that no worker is left running one of them alone at the end.
-SLOW_FIRST = ("test_collision_map.py::test_coulomb_grid_n2_bitwise",)
-#: The docs build runs every tutorial, each compiling kernels that the rest of the
-#: suite compiles too: run last, it loads them from numba's cache (first, it took
-#: 170 s of a cold CI run).
-LAST = ("test_docs_site.py::test_site_builds_strictly",)
+SLOW_FIRST = ("test_docs_site.py::test_site_builds_strictly",
+              "test_collision_map.py::test_coulomb_grid_n2_bitwise")
 
 
 def pytest_collection_modifyitems(config, items):
-    def rank(item):
-        if any(s in item.nodeid for s in SLOW_FIRST):
-            return 0
-        return 2 if any(s in item.nodeid for s in LAST) else 1
-    items.sort(key=rank)
+    items.sort(key=lambda item: not any(s in item.nodeid for s in SLOW_FIRST))
