@@ -236,7 +236,7 @@ def jumps(features):
 
 
 @numba.njit(inline="always", cache=True)
-def kick_after_jump(N, i, G, body, after, eta, eta_s, inv_m, dt):
+def kick_after_jump(i, G, body, after, eta, eta_s, inv_m, dt):
     """Closing kick of a granule at rest (held through the opening half) next to a
     contact that closed in this step with a jump of its force.
 
@@ -249,8 +249,8 @@ def kick_after_jump(N, i, G, body, after, eta, eta_s, inv_m, dt):
 
     Parameters
     ----------
-    N, i : int
-        Granules, and this granule's index.
+    i : int
+        The granule's index.
     G : ndarray, shape (N + 1,)
         Contacts' forces of the closing half kick (force).
     body : float
@@ -395,7 +395,7 @@ def closing_half(features, chain, timestep, state, forcing, fstate, counts):
     for i in range(v.size):
         if jumps(features) and v[i] == 0.0 and (fstate.after_jump[i] > 0.0
                                                  or fstate.after_jump[i + 1] > 0.0):
-            v1, w1, code = kick_after_jump(v.size, i, G, body[i], fstate.after_jump, eta[i],
+            v1, w1, code = kick_after_jump(i, G, body[i], fstate.after_jump, eta[i],
                                            eta_s[i], inv_m[i], timestep.dt)
         else:
             v1, w1, code = kick(features.coulomb, v[i], G[i] - G[i + 1] + body[i], eta[i],
