@@ -144,7 +144,9 @@ def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
     N = u.size
     e = 0.0
     for i in range(N - 1):
-        e += contact_energy(law, contact_overlap(d0[i], u[i], u[i + 1]), k[i], n[i])
+        d = contact_overlap(d0[i], u[i], u[i + 1])
+        if d > 0.0:  # an open contact stores nothing (adding its +0.0 would change no bit)
+            e += contact_energy(law, d, k[i], n[i])
     if left_wall:
         e += contact_energy(law, left_wall_overlap(walls, u[0]), walls[1], walls[2])
     if right_wall:

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import queue
 import threading
-from typing import NamedTuple, Protocol, Sequence
+import time
+from typing import NamedTuple, Optional, Protocol, Sequence
 
 import numpy as np
 
@@ -93,6 +94,17 @@ class FrameWriter(Protocol):
         """
 
 
+class _Slot:
+    """Frame arrays the log lends to a driver, and who still holds them: the
+    writers' thread (until written) and the log (while it is the latest frame)."""
+
+    __slots__ = ("x", "v", "f", "holders")
+
+    def __init__(self, count: int):
+        self.x, self.v, self.f = np.empty(count), np.empty(count), np.empty(count)
+        self.holders = 0
+
+
 class FrameLog:
     """The frames of a run: handed to writers as they come, kept as asked.
 
@@ -108,14 +120,25 @@ class FrameLog:
     background : bool
         Call the writers from a thread of their own, so that writing a frame
         overlaps the compiled stepping that follows it (the kernels release the
-        GIL). At most :data:`QUEUED` frames wait, so memory stays bounded; the
+        GIL). At most :attr:`queued` frames wait, so memory stays bounded; the
         writers' ``close`` is called from the caller's thread once every frame
         is written.
+
+    Notes
+    -----
+    A driver may fill a frame's arrays in place: :meth:`lend` gives it arrays
+    for the next frame and :meth:`record` then takes them without a copy. With
+    ``keep`` false the log reuses them once the writers have written the frame
+    and a later frame has replaced it, so a streamed run allocates nothing per
+    frame.
     """
 
     _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous",
                *TERMS_ADDED)
-    QUEUED = 4
+    QUEUED = 4  #: frames that may wait for the writers' thread, at least
+    QUEUED_BYTES = 16 * 2 ** 20  #: ... and more, up to 64, while they fit in this
+    BATCH_BYTES = 4 * 2 ** 20  #: frames handed to the writers' thread together, up to 32
+    BATCH_SECONDS = 0.05  #: ... and at least this often (wall time) while frames come
 
     def __init__(self, writers: Sequence[FrameWriter] = (), keep: bool = True,
                  background: bool = False):
@@ -124,23 +147,94 @@ class FrameLog:
         self.kept = {name: [] for name in self._FIELDS}
         self.count = 0
         self.max_balance_error = 0.0
+        self.queued, self.batch = self.QUEUED, 1
         self._queue = self._thread = self._error = None
+        self._batch: list = []
+        self._handed = time.monotonic()
+        self._lent = self._latest = None
+        # the slot freed last is reused first: its arrays are the likeliest in cache
+        self._free: queue.LifoQueue = queue.LifoQueue()
+        self._made = 0
+        self._lock = threading.Lock()
         if background and self.writers:
-            self._queue = queue.Queue(maxsize=self.QUEUED)
+            self._queue = queue.Queue()  # bounded by the slots lent (see lend)
             self._thread = threading.Thread(target=self._write_loop, name="frame-writers",
                                             daemon=True)
             self._thread.start()
 
+    def lend(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Arrays (x, v, f), each of shape (count,), for the driver to fill with the
+        next frame and pass to :meth:`record` (the same ones again until it does).
+
+        Waits, when the writers' thread has every array in hand, until it has
+        written one frame: this bounds the frames waiting for the writers.
+
+        Parameters
+        ----------
+        count : int
+            Granules N.
+
+        Returns
+        -------
+        tuple of ndarray
+            Positions, velocities and forces to fill, shape (count,) each.
+        """
+        if self._lent is None:
+            self._lent = self._slot(int(count))
+        slot = self._lent
+        return slot.x, slot.v, slot.f
+
+    def _slot(self, count: int) -> _Slot:
+        if self.keep or self.count == 0:
+            return _Slot(count)  # kept for good (the Result's frames, the first frame)
+        if self._made == 0:
+            frame_bytes = 24 * max(count, 1)
+            self.queued = int(np.clip(self.QUEUED_BYTES // frame_bytes, self.QUEUED, 64))
+            self.batch = int(np.clip(self.BATCH_BYTES // frame_bytes, 1, 32))
+        try:
+            return self._free.get_nowait()
+        except queue.Empty:
+            pass
+        # the writers' queue, the batch, the frame being written, the latest and this one
+        if self._made < self.queued + self.batch + 3:
+            self._made += 1
+            return _Slot(count)
+        self._hand_batch()  # (its frames' slots come back once written)
+        while True:  # every slot is held: wait for the writers' thread
+            self._raise_error()
+            try:
+                return self._free.get(timeout=0.5)
+            except queue.Empty:
+                continue
+
+    def _release(self, slot: Optional[_Slot]) -> None:
+        """One holder of ``slot`` is done with it: reuse it when none is left."""
+        if slot is None:
+            return
+        with self._lock:
+            slot.holders -= 1
+            free = slot.holders == 0
+        if free and not self.keep:
+            self._free.put(slot)
+
     def record(self, frame: Frame) -> None:
-        """Take one frame (its arrays are copied: the caller may reuse them).
+        """Take one frame: arrays lent by :meth:`lend` are taken as they are, others
+        are copied (the caller may reuse them).
 
         Parameters
         ----------
         frame : Frame
             One output frame (time, positions, velocities, ledger; scene units).
         """
-        frame = frame._replace(x=frame.x.copy(), v=frame.v.copy(), f=frame.f.copy())
-        self._hand_on(frame)
+        slot = self._lent if self._lent is not None else self._slot(frame.x.size)
+        self._lent = None
+        if not (frame.x is slot.x and frame.v is slot.v and frame.f is slot.f):
+            np.copyto(slot.x, frame.x)
+            np.copyto(slot.v, frame.v)
+            np.copyto(slot.f, frame.f)
+            frame = frame._replace(x=slot.x, v=slot.v, f=slot.f)
+        slot.holders = 1 + (self._queue is not None)  # the log, the writers' thread
+        self._hand_on(frame, slot)
         self.count += 1
         self.max_balance_error = max(self.max_balance_error, frame.balance_error)
         replace = not self.keep and len(self.kept["t"]) >= 2  # keep the first, replace the latest
@@ -149,28 +243,45 @@ class FrameLog:
                 self.kept[name][-1] = getattr(frame, name)
             else:
                 self.kept[name].append(getattr(frame, name))
+        if self.count > 1:  # (the first frame is kept for good)
+            self._latest, superseded = slot, self._latest
+            self._release(superseded)
 
-    def _hand_on(self, frame: Frame) -> None:
+    def _hand_on(self, frame: Frame, slot: Optional[_Slot]) -> None:
         if self._queue is None:
             for w in self.writers:
                 w.write_frame(frame)
             return
         self._raise_error()
-        self._queue.put(frame)
+        # Frames go to the writers' thread in batches: waking a thread costs tens of
+        # microseconds, as much as writing a frame of 10^4 granules.
+        self._batch.append((frame, slot))
+        now = time.monotonic()
+        if len(self._batch) >= self.batch or now - self._handed >= self.BATCH_SECONDS:
+            self._hand_batch(now)
+
+    def _hand_batch(self, now: Optional[float] = None) -> None:
+        """Hand the frames not yet handed to the writers' thread."""
+        if self._batch:
+            self._queue.put(self._batch)
+            self._batch = []
+        self._handed = time.monotonic() if now is None else now
 
     def _write_loop(self) -> None:
         while True:
-            frame = self._queue.get()
+            batch = self._queue.get()
             try:
-                if frame is None:
+                if batch is None:
                     return
-                if self._error is not None:
-                    continue  # drain: the caller raises the first error
-                try:
-                    for w in self.writers:
-                        w.write_frame(frame)
-                except BaseException as exc:  # handed to the caller's thread
-                    self._error = exc
+                for frame, slot in batch:
+                    try:
+                        if self._error is None:  # else drain: the caller raises the first error
+                            for w in self.writers:
+                                w.write_frame(frame)
+                    except BaseException as exc:  # handed to the caller's thread
+                        self._error = exc
+                    finally:
+                        self._release(slot)
             finally:
                 self._queue.task_done()
 
@@ -178,6 +289,7 @@ class FrameLog:
         """Every frame handed on is written and on disk (for a checkpoint): wait for
         the writers' thread, then flush each writer that buffers."""
         if self._queue is not None:
+            self._hand_batch()
             self._queue.join()
         self._raise_error()
         for w in self.writers:
@@ -210,6 +322,7 @@ class FrameLog:
     def finish(self) -> None:
         """Wait until every frame handed on is written (raises a writer's error)."""
         if self._thread is not None:
+            self._hand_batch()
             self._queue.put(None)
             self._thread.join()
             self._thread = None

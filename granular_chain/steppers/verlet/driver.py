@@ -32,8 +32,10 @@ from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Result, ledger_
 from ...units import scaled_parameters
 from .event_log import EventLog, new_event_log
 from .forced import forced_chunk
-from .forced_setup import (FORCED_STATE_ARRAYS, body_work, dashpot_rate, energies_at,
-                           forced_dt_limit, forced_records, is_forced, wall_positions)
+from .forced_setup import (FORCED_STATE_ARRAYS, body_work, dashpot_rate, forced_dt_limit,
+                           forced_records, is_forced, walls_at)
+from .frame_scan import (CONTACT_PASSED, LEFT_WALL_PASSED, NO_PROBLEM, FrameArrays, Scan,
+                         ScanCodes, scan_frame)
 from .kernel import chunk_kernel, synchronise
 from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
                       Features, State, Timestep)
@@ -288,20 +290,25 @@ class VerletRun:
         else:
             self.kernel = specialised(chunk_kernel(self.features),
                                       self._records(self._control(1)), (0,))
-        self.limits = _overlap_limits(model)
+        self._scan_codes = ScanCodes(int(feat.law), int(feat.left_wall), int(feat.right_wall))
+        self._v2 = np.empty(N)
+        x = np.empty(N)
+        self._scanner = specialised(scan_frame, (
+            self._scan_codes, self.chain, model.walls, self.u, self.vs, self.f, model.x0,
+            FrameArrays(x, x, x, self._v2)), (0,))
         ke0, pe0 = model.energies(self.u, self.v)
         self.e0 = ke0 + pe0
         self.steps, self.t_now, self.dt_now = 0, 0.0, dt
         self.short_taken = False
 
-    def frame(self, energies=None) -> Frame:
-        """The synchronised state at the current time, with its ledger (``energies``:
-        the kinetic and elastic energy when already known).
+    def frame(self, scan: Optional[Scan] = None) -> Frame:
+        """The synchronised state at the current time, with its ledger, in arrays
+        lent by the frame log (``scan``: this state's :meth:`scan`, when already made).
 
         Parameters
         ----------
-        energies : tuple of float, optional
-            ``(kinetic, elastic)`` now, scene units of energy; computed when None.
+        scan : Scan, optional
+            The scan of the current state; made when None.
 
         Returns
         -------
@@ -309,18 +316,23 @@ class VerletRun:
             Step count, time, positions x0 + u, velocities, forces (shape (N,),
             scene units) and the ledger terms.
         """
-        ke, pe = energies if energies is not None else self._energies()
+        scan = scan if scan is not None else self.scan()
+        x, v, f = self.log.lend(self.model.count)
+        ke, pe = scan.kinetic, scan.potential
         if self.forced:
-            return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
+            return Frame(self.steps, self.t_now, x, v, f, ke, pe,
                          self.ledger[0], self.ledger[1], self.e0, *self._added_terms())
-        return Frame(self.steps, self.t_now, self.model.x0 + self.u, self.vs, self.f, ke, pe,
+        return Frame(self.steps, self.t_now, x, v, f, ke, pe,
                      self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
 
-    def _energies(self):
-        """Kinetic and elastic energy now (the walls where they are at t_now)."""
-        if self.forced:
-            return energies_at(self.model, self.u, self.vs, self.t_now)
-        return self.model.energies(self.u, self.vs)
+    def scan(self) -> Scan:
+        """Read the state off in one compiled pass (:func:`.frame_scan.scan_frame`):
+        the frame's arrays, written into the arrays the frame log lends, the
+        checks and the energies (the walls where they are at t_now)."""
+        x, v, f = self.log.lend(self.model.count)
+        out = FrameArrays(x, v, f, self._v2)
+        return Scan(*self._scanner(self._scan_codes, self.chain, walls_at(self.model, self.t_now),
+                                   self.u, self.vs, self.f, self.model.x0, out))
 
     def _added_terms(self):
         """(contact_dissipated, wall_work, body_work) now (forced scenes)."""
@@ -406,11 +418,11 @@ class VerletRun:
             if at_frame or at_thermo:
                 if not rest_watch:
                     code = self._synchronise(code)
-                ended, energies = self._check(code)
+                ended, scan = self._check(code)
                 if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
                                                       Status.UNSTABLE):
                     return ended
-                frame = self.frame(energies)
+                frame = self.frame(scan)
                 if self.thermo is not None and (at_thermo or ended is not None):
                     self.thermo.write_frame(frame)
                     self.next_thermo = self.steps + thermo_every if thermo_every else math.inf
@@ -569,12 +581,6 @@ class VerletRun:
             self.fstate.clock[:] = (self.t_now, 0.0)
         self.n_total += 1
 
-    def _wall_shift(self):
-        """(s_L, s_R): the walls' displacements now (zeros unless driven)."""
-        if self.forced and self.model.features.driven:
-            return wall_positions(self.model, self.t_now)
-        return (0.0, 0.0)
-
     def _synchronise(self, code: int) -> int:
         """Synchronise a merged-kick run's velocities (into vs); rest read off them."""
         if self.merged:
@@ -591,19 +597,21 @@ class VerletRun:
         return code
 
     def _check(self, code: int):
-        """``((status, message) or None, (kinetic, potential))``: whether the run ends
-        here, and the energies of the state it ends or goes on with."""
-        model, u, vs, dt, T = self.model, self.u, self.vs, self.plan.dt, self.T
-        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(vs))):
-            bad = int(np.flatnonzero(~(np.isfinite(u) & np.isfinite(vs)))[0])
+        """``((status, message) or None, scan)``: whether the run ends here, and the
+        :meth:`scan` of the state it ends or goes on with."""
+        dt, T = self.plan.dt, self.T
+        scan = self.scan()
+        if scan.nonfinite >= 0:
             return (Status.NONFINITE, (
-                f"non-finite state by t = {self.t_now:.6g} at granule {bad}: the step dt = "
-                f"{dt:g} is likely too large for the stiffest contact (period or collision time "
-                f"{T:.4g}); reduce run.dt")), None
+                f"non-finite state by t = {self.t_now:.6g} at granule {scan.nonfinite}: the "
+                f"step dt = {dt:g} is likely too large for the stiffest contact (period or "
+                f"collision time {T:.4g}); reduce run.dt")), None
         ended = None
         if code == Status.SEPARATED:
-            self.t_now = _backtrack_to_separation(model, u, vs, self.f, self.ledger,
-                                                  self.stop_contact, self.dt_now, self.t_now)
+            self.t_now = _backtrack_to_separation(self.model, self.u, self.vs, self.f,
+                                                  self.ledger, self.stop_contact, self.dt_now,
+                                                  self.t_now)
+            scan = self.scan()
             ended = Status.SEPARATED, (
                 f"contact {self.stop_contact} opened at t = {self.t_now:.12g} (located inside "
                 f"the step by a second-order backtrack)")
@@ -612,14 +620,14 @@ class VerletRun:
                 "held by static friction"
             ended = Status.AT_REST, (
                 f"every granule at rest ({held}) at t = {self.t_now:.12g}")
-        problem = _overlap_problem(model, u, self.limits, self._wall_shift())
-        if problem:
-            message = f"{problem} at t = {self.t_now:.6g}; " + OVERLAP_ADVICE
+        if scan.problem != NO_PROBLEM:
+            message = f"{_passed(scan, self.chain.olim)} at t = {self.t_now:.6g}; " + \
+                OVERLAP_ADVICE
             if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
                 message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
                             f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
             return (Status.OVERLAP, message), None
-        ke, pe = self._energies()
+        ke, pe = scan.kinetic, scan.potential
         balance = abs(ke + pe + self.ledger[0] - self.sync[0] + self.ledger[1] - self.e0)
         scale = self.e0
         if self.forced:
@@ -635,7 +643,7 @@ class VerletRun:
                 f"energy ledger off by {balance / scale:.3g} x the initial energy at "
                 f"t = {self.t_now:.6g}: the integration is unstable; reduce run.dt (now "
                 f"{dt:g}; stiffest contact time {T:.4g})")), None
-        return ended, (ke, pe)
+        return ended, scan
 
 
 class _NoStop:
@@ -745,31 +753,21 @@ def _overlap_caps(model: Model):
     return olim, float(np.min(at_limit))
 
 
-def _overlap_problem(model: Model, u, limits, shift=(0.0, 0.0)) -> str:
-    """Describe the first contact whose granules have passed each other, or ''.
+def _passed(scan: Scan, olim) -> str:
+    """Describe the contact whose granules have passed each other, or the wall a
+    granule has passed, that ``scan`` found.
 
     Checked at the output cadence. An overlap of r_i + r_(i+1) puts two centres
     on top of each other: beyond it the granules are in the wrong order (a
     crossing between two frames leaves them so), and the one-sided contact
-    model no longer describes the scene. ``shift``: the walls' displacements
-    (s_L, s_R) now.
+    model no longer describes the scene. ``olim``: :attr:`.records.Chain.olim`.
     """
-    lim, left, right = limits
-    if model.count > 1:
-        delta = model.d0 + u[:-1] - u[1:]
-        bad = np.flatnonzero(delta >= lim)
-        if bad.size:
-            i = int(bad[0])
-            return (f"contact {i} overlaps by {delta[i]:.4g}, not less than the sum of the "
-                    f"radii {lim[i]:.4g}")
-    w = model.walls
-    d_left, d_right = w[0] + shift[0] - u[0], w[3] + u[-1] - shift[1]
-    if model.features.left_wall and d_left >= left:
-        return f"granule 0 overlaps the left wall by {d_left:.4g}, more than its radius"
-    if model.features.right_wall and d_right >= right:
-        return (f"granule {model.count - 1} overlaps the right wall by {d_right:.4g}, "
-                f"more than its radius")
-    return ""
+    i, d = scan.index, scan.overlap
+    if scan.problem == CONTACT_PASSED:
+        return (f"contact {i} overlaps by {d:.4g}, not less than the sum of the radii "
+                f"{olim[i + 1]:.4g}")
+    side = "left" if scan.problem == LEFT_WALL_PASSED else "right"
+    return f"granule {i} overlaps the {side} wall by {d:.4g}, more than its radius"
 
 
 def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):

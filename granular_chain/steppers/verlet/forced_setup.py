@@ -13,14 +13,13 @@ import math
 import numpy as np
 
 from ..._compile import specialised
-from ...forces import total_potential
 from ...laws.damping import DAMPING_LINEAR, DAMPING_VISCOELASTIC
 from ...laws.wall_motion import WALL_SINE, wall_displacement
 from ...model import Model
 from .forced import ForcedFeatures, ForcedState, Forcing, forced_start
 
-__all__ = ["is_forced", "forced_records", "forced_dt_limit", "dashpot_rate", "wall_positions", "energies_at",
-           "body_work", "FORCED_STATE_ARRAYS"]
+__all__ = ["is_forced", "forced_records", "forced_dt_limit", "dashpot_rate", "wall_positions",
+           "walls_at", "body_work", "FORCED_STATE_ARRAYS"]
 
 #: Steps per damping time m_eff/c of the fastest dashpot (default dt), and per
 #: period of a sine-driven wall.
@@ -164,35 +163,31 @@ def wall_positions(model: Model, t: float) -> tuple[float, float]:
     return tuple(float(wall_displacement(int(k), p1, p2, t)) for k, p1, p2 in model.wall_motion)
 
 
-def energies_at(model: Model, u, v, t: float) -> tuple[float, float]:
-    """Kinetic and elastic energy of (u, v) at time t, the wall contacts' overlaps
-    taken with the walls where they are at t.
+def walls_at(model: Model, t: float) -> np.ndarray:
+    """The wall contacts' (d0, k, n), shape (6,), with the walls where they are at t:
+    a driven wall's displacement enters its d0 (``model.walls`` itself when no wall
+    is driven).
 
     Parameters
     ----------
     model : Model
         The compiled scene, scene units.
-    u, v : numpy.ndarray
-        Shape (N,) each: displacements and velocities, scene units.
     t : float
         Time, scene units of time.
 
     Returns
     -------
-    tuple of float
-        ``(kinetic, elastic)``, scene units of energy.
+    numpy.ndarray
+        Shape (6,): (d0, k, n) of the left, then the right wall contact.
     """
     if not model.features.driven:
-        return model.energies(u, v)
+        return model.walls
     s_left, s_right = wall_positions(model, t)
     walls = model.walls.copy()
     walls[0] += s_left  # delta_L = d0_L + s_L - u_0
     walls[3] -= s_right  # delta_R = d0_R + u_(N-1) - s_R
-    feat = model.features
-    args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, model.d0, model.k,
-            model.n, walls)
-    ke = 0.5 * float(np.dot(model.mass, v * v))
-    return ke, float(specialised(total_potential, args, (0, 1, 2))(*args))
+    return walls
+
 
 
 def body_work(model: Model, u) -> float:

@@ -1,0 +1,165 @@
+"""What the Verlet driver reads off the state at an output frame, in one compiled pass.
+
+At a frame the driver needs the frame's arrays (x = x0 + u, v, f), whether the
+state is finite, whether two centres have met or a granule has passed a wall
+(the one-sided contact model then no longer describes the scene), and the
+kinetic and elastic energies of the ledger. Written with numpy these are about
+a dozen passes over the N granules and as many temporary arrays, which on a
+long chain cost as much as tens of steps. :func:`scan_frame` makes one pass,
+writes into arrays the frame log lends (:meth:`granular_chain.frames.FrameLog.lend`),
+allocates nothing and releases the GIL, so the writers' thread keeps working
+meanwhile.
+
+The energies are bit for bit those of :meth:`granular_chain.model.Model.energies`:
+the same BLAS dot product for sum(m v^2)/2 and the same ordered sum of
+:func:`granular_chain.forces.potential_energy`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from ...forces import contact_overlap, left_wall_overlap, potential_energy, right_wall_overlap
+
+__all__ = ["ScanCodes", "FrameArrays", "Scan", "scan_frame", "NO_PROBLEM", "CONTACT_PASSED",
+           "LEFT_WALL_PASSED", "RIGHT_WALL_PASSED"]
+
+# Values of Scan.problem.
+NO_PROBLEM = 0
+CONTACT_PASSED = 1  #: contact ``index``'s overlap reached r_i + r_(i+1): the centres met
+LEFT_WALL_PASSED = 2  #: granule 0 overlaps the left wall by its radius or more
+RIGHT_WALL_PASSED = 3  #: granule N-1 overlaps the right wall by its radius or more
+
+# The exponent bits of a double: all set for infinities and NaN only.
+_EXPONENT = np.int64(0x7FF0000000000000)
+
+
+class ScanCodes(NamedTuple):
+    """Compile-time codes of a scan: the contact law and the walls present (1/0)."""
+
+    law: int
+    left_wall: int
+    right_wall: int
+
+
+class FrameArrays(NamedTuple):
+    """Where a scan writes the frame, each of shape (N,), units of the model.
+
+    Attributes
+    ----------
+    x, v, f : ndarray
+        Centre positions x0 + u, velocities, net spring forces.
+    v2 : ndarray
+        Work array: v^2, for the dot product with the masses.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    f: np.ndarray
+    v2: np.ndarray
+
+
+class Scan(NamedTuple):
+    """What a scan found (see :func:`scan_frame`).
+
+    Attributes
+    ----------
+    nonfinite : int
+        First granule whose u or v is NaN or infinite, -1 when none is.
+    problem : int
+        NO_PROBLEM, CONTACT_PASSED, LEFT_WALL_PASSED or RIGHT_WALL_PASSED (the first
+        found, in that order of the chain: contacts left to right, then walls).
+    index : int
+        The contact (CONTACT_PASSED), else 0 or N-1 for a wall, -1 without a problem.
+    overlap : float
+        The overlap found at ``index`` (length).
+    kinetic, potential : float
+        sum(m v^2)/2 and the elastic energy of the contacts and walls (energy).
+    """
+
+    nonfinite: int
+    problem: int
+    index: int
+    overlap: float
+    kinetic: float
+    potential: float
+
+
+@numba.njit(cache=True, nogil=True)
+def scan_frame(codes, chain, walls, u, v, f, x0, out):
+    """Fill the frame's arrays from the state and check it, in one pass.
+
+    Parameters
+    ----------
+    codes : ScanCodes
+        Compile-time codes (literal fields).
+    chain : granular_chain.steppers.verlet.records.Chain
+        The chain's constants: d0, k, n (N-1,), mass (N,), olim (N+1,) (the
+        overlaps at which centres meet: left wall, contacts, right wall).
+    walls : ndarray, shape (6,)
+        (d0, k, n) of the left, then the right wall contact, with the walls where
+        they are now (a driven wall's displacement added to its d0).
+    u, v, f : ndarray, shape (N,)
+        Displacements, synchronised velocities and net spring forces.
+    x0 : ndarray, shape (N,)
+        Initial centre positions.
+    out : FrameArrays
+        Written: x = x0 + u, v, f, and v^2.
+
+    Returns
+    -------
+    tuple
+        The fields of :class:`Scan`.
+    """
+    law = numba.literally(codes.law)
+    left_wall = numba.literally(codes.left_wall)
+    right_wall = numba.literally(codes.right_wall)
+    N = u.size
+    ubits, vbits = u.view(np.int64), v.view(np.int64)
+    nonfinite = 0
+    for i in range(N):  # no branch: the loop vectorises
+        vi = v[i]
+        out.x[i] = x0[i] + u[i]
+        out.v[i] = vi
+        out.f[i] = f[i]
+        out.v2[i] = vi * vi
+        nonfinite |= ((ubits[i] & _EXPONENT) == _EXPONENT) | ((vbits[i] & _EXPONENT) == _EXPONENT)
+    first = -1
+    if nonfinite:
+        for i in range(N):
+            if not (np.isfinite(u[i]) and np.isfinite(v[i])):
+                first = i
+                break
+    problem, index, overlap = _passed(left_wall, right_wall, chain, walls, u)
+    kinetic = 0.5 * np.dot(chain.mass, out.v2)
+    potential = potential_energy(law, left_wall, right_wall, u, chain.d0, chain.k, chain.n,
+                                 walls)
+    return first, problem, index, overlap, kinetic, potential
+
+
+@numba.njit(inline="always", cache=True)
+def _passed(left_wall, right_wall, chain, walls, u):
+    """(problem, index, overlap): the first contact whose centres met, else a wall
+    its granule has passed, else (NO_PROBLEM, -1, 0)."""
+    N = u.size
+    olim = chain.olim
+    met = False
+    for i in range(N - 1):  # whether any has, with no early exit: the loop vectorises
+        met |= contact_overlap(chain.d0[i], u[i], u[i + 1]) >= olim[i + 1]
+    if met:
+        for i in range(N - 1):
+            d = contact_overlap(chain.d0[i], u[i], u[i + 1])
+            if d >= olim[i + 1]:
+                return CONTACT_PASSED, i, d
+    if left_wall:
+        d = left_wall_overlap(walls, u[0])
+        if d >= olim[0]:
+            return LEFT_WALL_PASSED, 0, d
+    if right_wall:
+        d = right_wall_overlap(walls, u[N - 1])
+        if d >= olim[N]:
+            return RIGHT_WALL_PASSED, N - 1, d
+    return NO_PROBLEM, -1, 0.0
