@@ -3,9 +3,11 @@
 A driver stops its compiled stepping at the output cadence and records a
 :class:`Frame` in a :class:`FrameLog`. The log passes each frame to the
 attached writers as the run goes (HOOMD-blue's writers on a trigger), keeps the
-energy ledger of every frame (four numbers a frame) and keeps the states
-themselves only when asked: a run that streams its frames to disk holds two
-frames in memory (the first and the latest), whatever the number of frames.
+largest ledger error over the frames, and keeps the states themselves only
+when asked: a run that streams its frames to disk holds a fixed number of
+frames in memory (the first, the latest, and those waiting for the writers'
+thread: about 20 MiB of frames, at most 99 and at least 8), whatever the
+number of frames.
 """
 
 from __future__ import annotations

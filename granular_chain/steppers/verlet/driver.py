@@ -326,9 +326,15 @@ class VerletRun:
                      self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
 
     def scan(self) -> Scan:
-        """Read the state off in one compiled pass (:func:`.frame_scan.scan_frame`):
-        the frame's arrays, written into the arrays the frame log lends, the
-        checks and the energies (the walls where they are at t_now)."""
+        """Read the state off in one compiled pass (:func:`.frame_scan.scan_frame`).
+
+        Returns
+        -------
+        Scan
+            The checks (first non-finite granule, a passed contact or wall) and the
+            kinetic and elastic energies (scene units, the walls where they are at
+            t_now); the frame's arrays are written into those the frame log lends.
+        """
         x, v, f = self.log.lend(self.model.count)
         out = FrameArrays(x, v, f, self._v2)
         return Scan(*self._scanner(self._scan_codes, self.chain, walls_at(self.model, self.t_now),
