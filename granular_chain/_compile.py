@@ -15,10 +15,20 @@ costs a fraction of a microsecond per call.
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import os
+
 import numba
 from numba import types
 
 _ENTRIES: dict = {}
+
+#: A folder shared by processes that may compile the same kernels at the same time
+#: (the test suite's workers, a sweep's workers): when set, a process compiling a
+#: specialisation holds a lock on it there, and another asking for it meanwhile
+#: waits and then loads it from numba's on-disk cache instead of compiling it too.
+LOCK_DIR_ENV = "GRANULAR_CHAIN_COMPILE_LOCKS"
 
 
 def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
@@ -51,7 +61,8 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     if entry is None:
         sig = tuple(_literal_type(a) if i in literal else numba.typeof(a)
                     for i, a in enumerate(args))
-        dispatcher.compile(sig)  # compile, or load from the on-disk cache
+        with _compile_lock(dispatcher, sig):
+            dispatcher.compile(sig)  # compile, or load from the on-disk cache
         entry = dispatcher.overloads[sig].entry_point
         _ENTRIES[key] = entry
     return entry
@@ -72,3 +83,28 @@ def _type_key(a):
     if hasattr(a, "flags"):
         return (type(a), a.dtype, a.ndim, a.flags.c_contiguous, a.flags.writeable)
     return type(a)
+
+
+@contextlib.contextmanager
+def _compile_lock(dispatcher, sig):
+    """Hold an exclusive lock on this specialisation in the folder named by
+    :data:`LOCK_DIR_ENV` (nothing when it is unset or cannot be used); released
+    when the process ends, whatever the way."""
+    folder = os.environ.get(LOCK_DIR_ENV)
+    if not folder:
+        yield
+        return
+    import fcntl
+
+    name = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}{sig}"
+    path = os.path.join(folder, hashlib.sha1(name.encode()).hexdigest() + ".lock")
+    try:
+        fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o600)
+    except OSError:
+        yield
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # (closing releases the lock)

@@ -1,10 +1,23 @@
 """Shared helpers for the test-suite."""
 
+import atexit
 import math
 import os
+import shutil
+import tempfile
 
 import numpy as np
 from hypothesis import settings
+
+from granular_chain._compile import LOCK_DIR_ENV
+
+# The workers (pytest-xdist) inherit this from the controller: a kernel one worker is
+# compiling, the other waits for and loads from numba's cache instead of compiling it
+# as well (cold CI runs compile the event kernels for about 40 s each).
+if "PYTEST_XDIST_WORKER" not in os.environ and LOCK_DIR_ENV not in os.environ:
+    _locks = tempfile.mkdtemp(prefix="gc-compile-locks-")
+    os.environ[LOCK_DIR_ENV] = _locks
+    atexit.register(shutil.rmtree, _locks, True)
 
 # The suite draws the same examples on every run (a check that lands must not
 # depend on luck); HYPOTHESIS_PROFILE=explore draws fresh ones to look for new

@@ -21,7 +21,12 @@ from pathlib import Path
 
 import pytest
 
+import granular_chain
+
 ROOT = Path(__file__).resolve().parents[1]
+#: Where the tested granular_chain lives (the tutorials import that copy, whose
+#: compiled kernels the other tests share).
+PACKAGE_PARENT = str(Path(granular_chain.__file__).resolve().parents[1])
 sys.path.insert(0, str(ROOT))
 
 from docs_build import cli_reference, scene_reference  # noqa: E402
@@ -136,7 +141,8 @@ def test_site_builds_strictly(tmp_path):
     site = tmp_path / "site"
     done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q",
                            "--site-dir", str(site)], cwd=ROOT, capture_output=True, text=True,
-                          timeout=600, env={**os.environ, "NO_MKDOCS_2_WARNING": "1"})
+                          timeout=600, env={**os.environ, "NO_MKDOCS_2_WARNING": "1",
+                                            "GRANULAR_CHAIN_TUTORIAL_PATH": PACKAGE_PARENT})
     assert done.returncode == 0, done.stderr[-5000:]
     for page in ("reference/scene/index.html", "reference/cli/index.html", "api/index.html",
                  "changelog/index.html", "tutorials/struck_chain/index.html"):
