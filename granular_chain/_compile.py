@@ -108,3 +108,18 @@ def _compile_lock(dispatcher, sig):
         yield
     finally:
         os.close(fd)  # (closing releases the lock)
+
+
+def share_compiling() -> None:
+    """Before starting worker processes on this machine (a LocalCluster): give them a
+    lock folder (:data:`LOCK_DIR_ENV`, a temporary one removed at exit, unless one is
+    set already), so that a kernel they all need first is compiled by one of them."""
+    if os.environ.get(LOCK_DIR_ENV):
+        return
+    import atexit
+    import shutil
+    import tempfile
+
+    folder = tempfile.mkdtemp(prefix="granular-chain-compile-locks-")
+    os.environ[LOCK_DIR_ENV] = folder
+    atexit.register(shutil.rmtree, folder, True)

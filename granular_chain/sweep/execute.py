@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
 
+from .._compile import share_compiling
 from .grid import Axis, SweepError, coord_text, grid_points
 from .point import QUANTITIES, PointOptions, value_columns
 from .resume import open_results, scene_text_hash
@@ -257,6 +258,7 @@ class _Workers:
                 if scheduler:
                     client = self.own_client = Client(scheduler)
                 else:
+                    share_compiling()
                     self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
                                                 processes=True, dashboard_address=None)
                     client = self.own_client = Client(self.cluster)

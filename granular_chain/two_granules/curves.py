@@ -16,6 +16,7 @@ from typing import Optional
 
 import numpy as np
 
+from .._compile import share_compiling
 from ..plotting import tex_name
 from .boundaries import PARAMS, _Problem, _refine
 from .outcomes import OUTCOMES
@@ -348,6 +349,7 @@ def _run_tasks(fn, args, executor, client, workers):
     from distributed import Client, LocalCluster
     own = cluster = None
     if client is None:
+        share_compiling()
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=None)
         client = own = Client(cluster)
