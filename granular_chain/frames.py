@@ -262,6 +262,13 @@ class FrameLog:
         if len(self._batch) >= self.batch or now - self._handed >= self.BATCH_SECONDS:
             self._hand_batch(now)
 
+    def poll(self) -> None:
+        """Hand on frames that have waited :data:`BATCH_SECONDS` for a batch to fill
+        (drivers call this between compiled calls, so a frame reaches the files
+        within about that time even when the next frame is long in coming)."""
+        if self._batch and time.monotonic() - self._handed >= self.BATCH_SECONDS:
+            self._hand_batch()
+
     def _hand_batch(self, now: Optional[float] = None) -> None:
         """Hand the frames not yet handed to the writers' thread."""
         if self._batch:

@@ -106,3 +106,27 @@ def test_reused_frame_arrays_reach_a_slow_writer_intact():
         assert (x == step).all() and (v == -step).all() and (f == 2 * step).all()
     assert len(made) < 300  # arrays were reused (bounded memory)...
     assert log.kept["x"][0][0] == 0 and log.kept["x"][-1][0] == 299  # ...but not the kept ones
+
+
+def test_a_waiting_frame_reaches_the_writers_without_the_next_one():
+    seen = []
+
+    class Sink:
+        def write_frame(self, frame):
+            seen.append(frame.step)
+
+        def close(self, result):
+            pass
+
+    log = FrameLog([Sink()], keep=False, background=True)
+    for step in range(3):  # in quick succession: the last ones wait for a batch
+        x, v, f = log.lend(10_000)
+        log.record(Frame(step, float(step), x, v, f, 0.0, 0.0, 0.0, 0.0, 1.0))
+    time.sleep(0.2)
+    assert seen != [0, 1, 2]  # still waiting: no frame came to fill the batch
+    log.poll()  # (as drivers do between compiled calls)
+    deadline = time.monotonic() + 10
+    while seen != [0, 1, 2] and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert seen == [0, 1, 2]
+    log.finish()

@@ -433,6 +433,7 @@ class EventRun:
         """
         self.budget, self.mark = budget, mark
         self.flush()
+        self.log.poll()
         steps = int(self.packed.clock.steps)
         due = self.every > 0 and steps >= self.next_checkpoint
         if due:

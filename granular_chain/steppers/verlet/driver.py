@@ -416,6 +416,7 @@ class VerletRun:
             target = min(self.next_frame, self.next_thermo, self.next_ck,
                          self.steps + chunk.steps)
             code = self._advance(chunk, int(target) - self.steps)
+            self.log.poll()
             if rest_watch:
                 code = self._synchronise(code)
             at_frame = self.steps >= self.next_frame or code != Pause.CHUNK_DONE or stop.requested
