@@ -395,7 +395,6 @@ class VerletRun:
         return result
 
     def _loop(self, stop):
-        every = self.plan.every
         thermo_every = self.thermo.every if self.thermo is not None else 0
         chunk = _Chunk(self.model.count)
         ck_every = self.checkpoint_every or 0
