@@ -6,15 +6,16 @@ attached writers as the run goes (HOOMD-blue's writers on a trigger), keeps the
 largest ledger error over the frames, and keeps the states themselves only
 when asked: a run that streams its frames to disk holds a fixed number of
 frames in memory (the first, the latest, and those waiting for the writers'
-thread: about 20 MiB of frames, at most 99 and at least 8), whatever the
+thread: about 16 MiB of frames, at most 68 and at least 8), whatever the
 number of frames.
 """
 
 from __future__ import annotations
 
-import queue
+import operator
 import threading
 import time
+from collections import deque
 from typing import NamedTuple, Optional, Protocol, Sequence
 
 import numpy as np
@@ -72,6 +73,11 @@ class Frame(NamedTuple):
         """|balance| / initial (or absolute when the run starts with no energy)."""
         err = abs(self.balance)
         return err / self.initial if self.initial > 0 else err
+
+
+#: The fields a FrameLog keeps, read off a Frame in one call.
+_kept_values = operator.attrgetter("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb",
+                                   "viscous", *TERMS_ADDED)
 
 
 class FrameWriter(Protocol):
@@ -133,14 +139,20 @@ class FrameLog:
     ``keep`` false the log reuses them once the writers have written the frame
     and a later frame has replaced it, so a streamed run allocates nothing per
     frame.
+
+    The writers' thread looks for recorded frames every :data:`POLL_SECONDS`
+    rather than being woken for each: waking a thread costs the recording
+    thread tens of microseconds, as much as writing a frame of 10^4 granules.
+    It takes each frame soon after it is recorded, so the same few arrays
+    cycle and stay in the recording core's cache: filling arrays that have
+    left it costs twice as much.
     """
 
     _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous",
-               *TERMS_ADDED)
+               *TERMS_ADDED)  # (as _kept_values reads them)
     QUEUED = 4  #: frames that may wait for the writers' thread, at least
     QUEUED_BYTES = 16 * 2 ** 20  #: ... and more, up to 64, while they fit in this
-    BATCH_BYTES = 4 * 2 ** 20  #: frames handed to the writers' thread together, up to 32
-    BATCH_SECONDS = 0.05  #: ... and at least this often (wall time) while frames come
+    POLL_SECONDS = 0.0005  #: how often the writers' thread looks for recorded frames
 
     def __init__(self, writers: Sequence[FrameWriter] = (), keep: bool = True,
                  background: bool = False):
@@ -149,17 +161,18 @@ class FrameLog:
         self.kept = {name: [] for name in self._FIELDS}
         self.count = 0
         self.max_balance_error = 0.0
-        self.queued, self.batch = self.QUEUED, 1
-        self._queue = self._thread = self._error = None
-        self._batch: list = []
-        self._handed = time.monotonic()
+        self.queued = self.QUEUED
+        self._thread = self._error = None
         self._lent = self._latest = None
-        # the slot freed last is reused first: its arrays are the likeliest in cache
-        self._free: queue.LifoQueue = queue.LifoQueue()
+        # Lists and deques shared with the writers' thread: their append and pop
+        # are atomic under the GIL, so neither thread takes a lock for them.
+        self._pending: deque = deque()  # (frame, slot) recorded, not yet written
+        self._free: list = []  # the slot freed last is reused first: the likeliest in cache
+        self._handed = self._written = 0
+        self._closing = False
         self._made = 0
         self._lock = threading.Lock()
         if background and self.writers:
-            self._queue = queue.Queue()  # bounded by the slots lent (see lend)
             self._thread = threading.Thread(target=self._write_loop, name="frame-writers",
                                             daemon=True)
             self._thread.start()
@@ -190,24 +203,17 @@ class FrameLog:
         if self.keep or self.count == 0:
             return _Slot(count)  # kept for good (the Result's frames, the first frame)
         if self._made == 0:
-            frame_bytes = 24 * max(count, 1)
-            self.queued = int(np.clip(self.QUEUED_BYTES // frame_bytes, self.QUEUED, 64))
-            self.batch = int(np.clip(self.BATCH_BYTES // frame_bytes, 1, 32))
-        try:
-            return self._free.get_nowait()
-        except queue.Empty:
-            pass
-        # the writers' queue, the batch, the frame being written, the latest and this one
-        if self._made < self.queued + self.batch + 3:
+            self.queued = int(np.clip(self.QUEUED_BYTES // (24 * max(count, 1)), self.QUEUED, 64))
+        if self._free:
+            return self._free.pop()
+        # the frames waiting, the one being written, the latest and this one
+        if self._made < self.queued + 3:
             self._made += 1
             return _Slot(count)
-        self._hand_batch()  # (its frames' slots come back once written)
-        while True:  # every slot is held: wait for the writers' thread
+        while not self._free:  # every slot is held: wait for the writers' thread
             self._raise_error()
-            try:
-                return self._free.get(timeout=0.5)
-            except queue.Empty:
-                continue
+            time.sleep(self.POLL_SECONDS)
+        return self._free.pop()
 
     def _release(self, slot: Optional[_Slot]) -> None:
         """One holder of ``slot`` is done with it: reuse it when none is left."""
@@ -217,7 +223,7 @@ class FrameLog:
             slot.holders -= 1
             free = slot.holders == 0
         if free and not self.keep:
-            self._free.put(slot)
+            self._free.append(slot)
 
     def record(self, frame: Frame) -> None:
         """Take one frame: arrays lent by :meth:`lend` are taken as they are, others
@@ -235,71 +241,63 @@ class FrameLog:
             np.copyto(slot.v, frame.v)
             np.copyto(slot.f, frame.f)
             frame = frame._replace(x=slot.x, v=slot.v, f=slot.f)
-        slot.holders = 1 + (self._queue is not None)  # the log, the writers' thread
+        slot.holders = 1 + (self._thread is not None)  # the log, the writers' thread
         self._hand_on(frame, slot)
         self.count += 1
         self.max_balance_error = max(self.max_balance_error, frame.balance_error)
-        replace = not self.keep and len(self.kept["t"]) >= 2  # keep the first, replace the latest
-        for name in self._FIELDS:
-            if replace:
-                self.kept[name][-1] = getattr(frame, name)
-            else:
-                self.kept[name].append(getattr(frame, name))
+        kept = self.kept
+        values = zip(self._FIELDS, _kept_values(frame))
+        if not self.keep and len(kept["t"]) >= 2:  # keep the first, replace the latest
+            for name, value in values:
+                kept[name][-1] = value
+        else:
+            for name, value in values:
+                kept[name].append(value)
         if self.count > 1:  # (the first frame is kept for good)
             self._latest, superseded = slot, self._latest
             self._release(superseded)
 
     def _hand_on(self, frame: Frame, slot: Optional[_Slot]) -> None:
-        if self._queue is None:
+        if self._thread is None:
             for w in self.writers:
                 w.write_frame(frame)
             return
         self._raise_error()
-        # Frames go to the writers' thread in batches: waking a thread costs tens of
-        # microseconds, as much as writing a frame of 10^4 granules.
-        self._batch.append((frame, slot))
-        now = time.monotonic()
-        if len(self._batch) >= self.batch or now - self._handed >= self.BATCH_SECONDS:
-            self._hand_batch(now)
-
-    def poll(self) -> None:
-        """Hand on frames that have waited :data:`BATCH_SECONDS` for a batch to fill
-        (drivers call this between compiled calls, so a frame reaches the files
-        within about that time even when the next frame is long in coming)."""
-        if self._batch and time.monotonic() - self._handed >= self.BATCH_SECONDS:
-            self._hand_batch()
-
-    def _hand_batch(self, now: Optional[float] = None) -> None:
-        """Hand the frames not yet handed to the writers' thread."""
-        if self._batch:
-            self._queue.put(self._batch)
-            self._batch = []
-        self._handed = time.monotonic() if now is None else now
+        self._pending.append((frame, slot))
+        self._handed += 1
 
     def _write_loop(self) -> None:
+        pending = self._pending
         while True:
-            batch = self._queue.get()
             try:
-                if batch is None:
-                    return
-                for frame, slot in batch:
-                    try:
-                        if self._error is None:  # else drain: the caller raises the first error
-                            for w in self.writers:
-                                w.write_frame(frame)
-                    except BaseException as exc:  # handed to the caller's thread
-                        self._error = exc
-                    finally:
-                        self._release(slot)
+                frame, slot = pending.popleft()
+            except IndexError:
+                if self._closing:  # (frames recorded before closing are in the deque by now)
+                    if not pending:
+                        return
+                    continue
+                time.sleep(self.POLL_SECONDS)
+                continue
+            try:
+                if self._error is None:  # else drain: the caller raises the first error
+                    for w in self.writers:
+                        w.write_frame(frame)
+            except BaseException as exc:  # handed to the caller's thread
+                self._error = exc
             finally:
-                self._queue.task_done()
+                self._release(slot)
+                self._written += 1
+
+    def _wait_written(self) -> None:
+        """Wait until the writers' thread has written every frame handed on."""
+        while self._written < self._handed and self._thread.is_alive():
+            time.sleep(self.POLL_SECONDS)
 
     def sync(self) -> None:
         """Every frame handed on is written and on disk (for a checkpoint): wait for
         the writers' thread, then flush each writer that buffers."""
-        if self._queue is not None:
-            self._hand_batch()
-            self._queue.join()
+        if self._thread is not None:
+            self._wait_written()
         self._raise_error()
         for w in self.writers:
             flush = getattr(w, "flush", None)
@@ -331,8 +329,7 @@ class FrameLog:
     def finish(self) -> None:
         """Wait until every frame handed on is written (raises a writer's error)."""
         if self._thread is not None:
-            self._hand_batch()
-            self._queue.put(None)
+            self._closing = True
             self._thread.join()
             self._thread = None
         self._raise_error()

@@ -109,6 +109,8 @@ def test_reused_frame_arrays_reach_a_slow_writer_intact():
 
 
 def test_a_waiting_frame_reaches_the_writers_without_the_next_one():
+    """The writers' thread finds recorded frames by itself: none waits for a later
+    frame or for a driver's call (ParaView follows a running job)."""
     seen = []
 
     class Sink:
@@ -119,14 +121,31 @@ def test_a_waiting_frame_reaches_the_writers_without_the_next_one():
             pass
 
     log = FrameLog([Sink()], keep=False, background=True)
-    for step in range(3):  # in quick succession: the last ones wait for a batch
+    for step in range(3):  # in quick succession, then nothing
         x, v, f = log.lend(10_000)
         log.record(Frame(step, float(step), x, v, f, 0.0, 0.0, 0.0, 0.0, 1.0))
-    time.sleep(0.2)
-    assert seen != [0, 1, 2]  # still waiting: no frame came to fill the batch
-    log.poll()  # (as drivers do between compiled calls)
     deadline = time.monotonic() + 10
     while seen != [0, 1, 2] and time.monotonic() < deadline:
-        time.sleep(0.01)
+        time.sleep(0.001)
     assert seen == [0, 1, 2]
     log.finish()
+
+
+def test_frames_recorded_just_before_finish_are_all_written():
+    """finish() ends the writers' thread only once it has every frame recorded before."""
+    for _ in range(20):
+        seen = []
+
+        class Sink:
+            def write_frame(self, frame):
+                seen.append(frame.step)
+
+            def close(self, result):
+                pass
+
+        log = FrameLog([Sink()], keep=False, background=True)
+        for step in range(5):
+            x, v, f = log.lend(4)
+            log.record(Frame(step, float(step), x, v, f, 0.0, 0.0, 0.0, 0.0, 1.0))
+        log.finish()
+        assert seen == list(range(5))

@@ -105,7 +105,8 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
         for i in range(7):
             w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
                           led.potential[i], led.coulomb[i], led.viscous[i])
-        assert w._xvf["x"].shape == (3, 2)
+        assert w._buffer["x"].shape == (3, 2)
+        w._wait_behind()  # (the second chunk is written on the writer's own thread)
         assert w.frames == 6 and w._h5["x"].shape == (6, 2) and w._h5["time"].shape == (6,)
         assert np.array_equal(w._h5["v"][...], result.v[:6])
         for i in range(7, n):

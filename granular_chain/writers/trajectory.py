@@ -39,6 +39,7 @@ finished :class:`~granular_chain.result.Result` through it.
 from __future__ import annotations
 
 import json
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Optional
 
@@ -50,8 +51,8 @@ from ..result import TERMS_ADDED, ledger_balance
 __all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
            "to_xarray", "FRAME_FIELDS", "LEDGER_FIELDS"]
 
-# Bounds of the in-memory buffer and of one HDF5 chunk of a (time, granule) array.
-_BUFFER_BYTES = 32 * 2 ** 20
+# Bounds of each of the two in-memory buffers and of one HDF5 chunk of a (time, granule) array.
+_BUFFER_BYTES = 16 * 2 ** 20
 _CHUNK_VALUES = 2 ** 17  # 1 MiB of float64: reading one frame reads little more than it
 
 _UNITS = {  # CF / UDUNITS strings per kind of quantity
@@ -78,6 +79,7 @@ LEDGER_FIELDS = {
     "balance": "kinetic + potential + coulomb + viscous + contact_dissipated - wall_work "
                "- body_work - initial energy (integrator error)",
 }
+_LEDGER_TERMS = tuple(name for name in LEDGER_FIELDS if name != "balance")
 # (granule,) arrays of the model: name -> (Model attribute, kind, long_name)
 _GRANULE_FIELDS = {
     "mass": ("mass", "mass", "granule mass"),
@@ -145,8 +147,11 @@ class TrajectoryWriter:
     """Append output frames to ``folder/trajectory.h5`` while a run goes.
 
     Frames are buffered, at most ``chunk_frames`` of them (fewer when N is so
-    large that the buffer would pass 32 MiB), and flushed with one resize and
+    large that the buffer would pass 16 MiB), and written with one resize and
     one write per array, so memory does not grow with the number of frames.
+    A full buffer is written behind, on a thread of its own, while frames fill
+    the other one: the caller does not wait for the disk unless it falls a
+    whole buffer behind.
 
     Parameters
     ----------
@@ -179,10 +184,10 @@ class TrajectoryWriter:
         self.frames = 0
         self._units = scene.units if scene is not None else "scaled"
         self._rows = max(1, min(int(chunk_frames), _BUFFER_BYTES // (24 * max(self.count, 1))))
-        self._t = np.empty(self._rows)
-        self._xvf = {name: np.empty((self._rows, self.count)) for name in FRAME_FIELDS}
-        self._led = {name: np.empty(self._rows) for name in LEDGER_FIELDS if name != "balance"}
+        self._buffer, self._spare = self._new_buffer(), None
         self._fill = 0
+        self._behind: Optional[Future] = None  # the buffer being written behind
+        self._pool: Optional[ThreadPoolExecutor] = None
         if resume_frames is not None:
             self._h5 = h5py.File(self.path, "a")
             self._reopen(int(resume_frames))
@@ -193,6 +198,12 @@ class TrajectoryWriter:
         except BaseException:
             self._h5.close()
             raise
+
+    def _new_buffer(self) -> dict:
+        """Room for ``_rows`` frames: time, x, v, f (rows, N) and the ledger terms."""
+        names = ("time", *FRAME_FIELDS, *(n for n in LEDGER_FIELDS if n != "balance"))
+        return {name: np.empty((self._rows, self.count) if name in FRAME_FIELDS else self._rows)
+                for name in names}
 
     def _reopen(self, frames: int) -> None:
         """Continue a file from its first ``frames`` frames (a run restarted from a
@@ -232,8 +243,9 @@ class TrajectoryWriter:
             ds.attrs.update(_attrs(self._units, kind, text))
             ds.dims[0].attach_scale(time)
             ds.dims[1].attach_scale(granule)
-        for name in self._led:  # balance needs the initial energy: written by close()
-            self._series(name)
+        for name in LEDGER_FIELDS:  # balance needs the initial energy: written by close()
+            if name != "balance":
+                self._series(name)
         for name, values in granule_values(model).items():
             _, kind, text = _GRANULE_FIELDS[name]
             self._put(name, values, ("granule",), kind, text)
@@ -277,30 +289,59 @@ class TrajectoryWriter:
             Energy dissipated by dashpots and work of moving walls and body forces
             so far, scene units of energy (0 when absent).
         """
-        i = self._fill
-        self._t[i] = t
-        for buf, arr in zip(self._xvf.values(), (x, v, f)):
-            buf[i] = arr
-        for buf, value in zip(self._led.values(), (kinetic, potential, coulomb, viscous,
-                                                   contact_dissipated, wall_work, body_work)):
-            buf[i] = value
+        i, buf = self._fill, self._buffer
+        buf["time"][i] = t
+        buf["x"][i], buf["v"][i], buf["f"][i] = x, v, f
+        for name, value in zip(_LEDGER_TERMS, (kinetic, potential, coulomb, viscous,
+                                               contact_dissipated, wall_work, body_work)):
+            buf[name][i] = value
         self._fill += 1
         if self._fill == self._rows:
-            self.flush()
+            self._write_behind()
+
+    def _write_behind(self) -> None:
+        """Hand the full buffer to the writing thread and go on in the other one."""
+        self._wait_behind()  # (the other buffer is free once it is written)
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="trajectory-h5")
+        full, start = self._buffer, self.frames
+        self._behind = self._pool.submit(self._write_rows, full, start, self._fill)
+        self.frames += self._fill
+        self._buffer, self._spare = self._spare or self._new_buffer(), full
+        self._fill = 0
+
+    def _wait_behind(self) -> None:
+        """Wait for the buffer being written behind (raises its error)."""
+        behind, self._behind = self._behind, None
+        if behind is not None:
+            behind.result()
+
+    def _write_rows(self, buf: dict, start: int, count: int) -> None:
+        """Append ``count`` buffered frames at frame ``start``; the file to disk."""
+        for name, rows in buf.items():
+            ds = self._h5[name]
+            ds.resize(start + count, axis=0)
+            ds[start:start + count] = rows[:count]
+        self._h5.flush()
 
     def flush(self) -> None:
         """Write the buffered frames to the file (and the file to disk)."""
-        m, n0 = self._fill, self.frames
-        if m == 0:
+        self._wait_behind()
+        if self._fill:
+            self._write_rows(self._buffer, self.frames, self._fill)
+            self.frames += self._fill
+            self._fill = 0
+        else:
             self._h5.flush()
-            return
-        for name, buf in [("time", self._t), *self._xvf.items(), *self._led.items()]:
-            ds = self._h5[name]
-            ds.resize(n0 + m, axis=0)
-            ds[n0:n0 + m] = buf[:m]
-        self.frames += m
-        self._fill = 0
-        self._h5.flush()
+
+    def _stop_behind(self) -> None:
+        """No more writing behind: the thread ends (after its last buffer)."""
+        try:
+            self._wait_behind()
+        finally:
+            if self._pool is not None:
+                self._pool.shutdown()
+                self._pool = None
 
     def close(self, result) -> None:
         """Flush, then write the ledger balance, final state, events and status; close the file.
@@ -311,6 +352,7 @@ class TrajectoryWriter:
             The finished run (its energy, final state, events and status; scene units).
         """
         self.flush()
+        self._stop_behind()
         h5 = self._h5
         bal = self._series("balance")
         bal.resize(self.frames, axis=0)
@@ -340,9 +382,12 @@ class TrajectoryWriter:
 
     def __exit__(self, exc_type, *exc) -> None:
         if self._h5.id.valid:  # not closed with a Result: keep the frames, no status
-            if exc_type is None:
-                self.flush()
-            self._h5.close()
+            try:
+                if exc_type is None:
+                    self.flush()
+            finally:
+                self._stop_behind()
+                self._h5.close()
 
 
 class TrajectoryFrames:

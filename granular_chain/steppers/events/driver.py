@@ -433,7 +433,6 @@ class EventRun:
         """
         self.budget, self.mark = budget, mark
         self.flush()
-        self.log.poll()
         steps = int(self.packed.clock.steps)
         due = self.every > 0 and steps >= self.next_checkpoint
         if due:

@@ -415,7 +415,6 @@ class VerletRun:
             target = min(self.next_frame, self.next_thermo, self.next_ck,
                          self.steps + chunk.steps)
             code = self._advance(chunk, int(target) - self.steps)
-            self.log.poll()
             if rest_watch:
                 code = self._synchronise(code)
             at_frame = self.steps >= self.next_frame or code != Pause.CHUNK_DONE or stop.requested
@@ -453,15 +452,12 @@ class VerletRun:
         its extra frame is recorded, so a run continued from it writes the frames of
         the cadence only, as the run that was never stopped.
         """
-        interrupted = (Status.INTERRUPTED, (
-            f"interrupted by {stop.name} at t = {self.t_now:.12g} after {self.steps} of "
-            f"{self.n_total} steps; the frames up to then are kept"))
         if self._finished():
             stop = _NO_STOP  # every step is taken: the run ends as if no stop had come
         if stop.requested and ended is None and self.steps < self.next_frame:
             self._checkpoint()
             self.log.record(frame)
-            return interrupted
+            return self._interrupted(stop)
         self.log.record(frame)
         self.next_frame = min(self.steps + self.plan.every, self.n_total)
         if self._finished() and ended is None and self.thermo is not None \
@@ -471,8 +467,14 @@ class VerletRun:
             return ended
         if stop.requested:
             self._checkpoint()
-            return interrupted
+            return self._interrupted(stop)
         return None
+
+    def _interrupted(self, stop):
+        """(status, message) of a run that a signal stops here."""
+        return Status.INTERRUPTED, (
+            f"interrupted by {stop.name} at t = {self.t_now:.12g} after {self.steps} of "
+            f"{self.n_total} steps; the frames up to then are kept")
 
     _STATE_ARRAYS = ("u", "v", "f", "ledger", "counts")
     _STATE_SCALARS = ("steps", "t_now", "dt_now", "short_taken", "n_total", "next_frame",

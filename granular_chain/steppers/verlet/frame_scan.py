@@ -6,9 +6,11 @@ state is finite, whether two centres have met or a granule has passed a wall
 kinetic and elastic energies of the ledger. Written with numpy these are about
 a dozen passes over the N granules and as many temporary arrays, which on a
 long chain cost as much as tens of steps. :func:`scan_frame` makes one pass,
-writes into arrays the frame log lends (:meth:`granular_chain.frames.FrameLog.lend`),
-allocates nothing and releases the GIL, so the writers' thread keeps working
-meanwhile.
+writes into arrays the frame log lends (:meth:`granular_chain.frames.FrameLog.lend`)
+and allocates nothing. It keeps the GIL: it lasts tens of microseconds, and
+letting the writers' thread take the GIL meanwhile makes the stepping thread
+wait for it back at the end (measured: streaming to trajectory.h5 about 2 %
+slower on a chain of 10^4 granules).
 
 The energies are bit for bit those of :meth:`granular_chain.model.Model.energies`:
 the same BLAS dot product for sum(m v^2)/2 and the same ordered sum of
@@ -88,7 +90,7 @@ class Scan(NamedTuple):
     potential: float
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True)
 def scan_frame(codes, chain, walls, u, v, f, x0, out):
     """Fill the frame's arrays from the state and check it, in one pass.
 
