@@ -75,11 +75,6 @@ class Frame(NamedTuple):
         return err / self.initial if self.initial > 0 else err
 
 
-#: The fields a FrameLog keeps, read off a Frame in one call.
-_kept_values = operator.attrgetter("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb",
-                                   "viscous", *TERMS_ADDED)
-
-
 class FrameWriter(Protocol):
     """What a writer attached to a run provides."""
 
@@ -149,7 +144,8 @@ class FrameLog:
     """
 
     _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous",
-               *TERMS_ADDED)  # (as _kept_values reads them)
+               *TERMS_ADDED)
+    _VALUES = operator.attrgetter(*_FIELDS)  # a frame's kept values, in one call
     QUEUED = 4  #: frames that may wait for the writers' thread, at least
     QUEUED_BYTES = 16 * 2 ** 20  #: ... and more, up to 64, while they fit in this
     POLL_SECONDS = 0.0005  #: how often the writers' thread looks for recorded frames
@@ -246,7 +242,7 @@ class FrameLog:
         self.count += 1
         self.max_balance_error = max(self.max_balance_error, frame.balance_error)
         kept = self.kept
-        values = zip(self._FIELDS, _kept_values(frame))
+        values = zip(self._FIELDS, self._VALUES(frame))
         if not self.keep and len(kept["t"]) >= 2:  # keep the first, replace the latest
             for name, value in values:
                 kept[name][-1] = value

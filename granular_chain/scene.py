@@ -10,7 +10,6 @@ the field as a dotted path and what is wrong, in one line (:class:`SceneError`).
 from __future__ import annotations
 
 import difflib
-import math
 import numbers
 import re
 import unicodedata
@@ -28,7 +27,6 @@ from pydantic import (
     PrivateAttr,
     ValidationError,
     ValidationInfo,
-    field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError

@@ -269,7 +269,6 @@ def trace_curves(plane=("eta1", "eta2"), box=((0.0, 1.0), (0.0, 1.0)), fixed=Non
         In the order of the seeds that started them (deterministic). The seed
         searches' collisions are added to the first curve's ``collisions``.
     """
-    t0 = time.perf_counter()
     tracer = _Plane(plane, box, fixed, tol, t_max, rtol)
     size = float(max(tracer.box[:, 1] - tracer.box[:, 0]))
     steps = (0.5 * step * size, min_step * size, step * size)

@@ -201,7 +201,7 @@ class TrajectoryWriter:
 
     def _new_buffer(self) -> dict:
         """Room for ``_rows`` frames: time, x, v, f (rows, N) and the ledger terms."""
-        names = ("time", *FRAME_FIELDS, *(n for n in LEDGER_FIELDS if n != "balance"))
+        names = ("time", *FRAME_FIELDS, *_LEDGER_TERMS)
         return {name: np.empty((self._rows, self.count) if name in FRAME_FIELDS else self._rows)
                 for name in names}
 
@@ -221,7 +221,7 @@ class TrajectoryWriter:
                      "t_final", "energy_initial", "event_counts", "info", "dt"):
             if name in h5.attrs:
                 del h5.attrs[name]
-        for name in ("time", *FRAME_FIELDS, *(n for n in LEDGER_FIELDS if n != "balance")):
+        for name in ("time", *FRAME_FIELDS, *_LEDGER_TERMS):
             h5[name].resize(frames, axis=0)
         self.frames = frames
 
@@ -243,9 +243,8 @@ class TrajectoryWriter:
             ds.attrs.update(_attrs(self._units, kind, text))
             ds.dims[0].attach_scale(time)
             ds.dims[1].attach_scale(granule)
-        for name in LEDGER_FIELDS:  # balance needs the initial energy: written by close()
-            if name != "balance":
-                self._series(name)
+        for name in _LEDGER_TERMS:  # balance needs the initial energy: written by close()
+            self._series(name)
         for name, values in granule_values(model).items():
             _, kind, text = _GRANULE_FIELDS[name]
             self._put(name, values, ("granule",), kind, text)
@@ -351,15 +350,17 @@ class TrajectoryWriter:
         result : Result
             The finished run (its energy, final state, events and status; scene units).
         """
-        self.flush()
-        self._stop_behind()
+        try:
+            self.flush()
+        finally:
+            self._stop_behind()
         h5 = self._h5
         bal = self._series("balance")
         bal.resize(self.frames, axis=0)
         step = 2 ** 16  # the ledger is read back in slices: memory stays bounded
         for a in range(0, self.frames, step):
             b = min(a + step, self.frames)
-            terms = (h5[name][a:b] for name in LEDGER_FIELDS if name != "balance")
+            terms = (h5[name][a:b] for name in _LEDGER_TERMS)
             bal[a:b] = ledger_balance(*terms, result.energy.initial)
         self._put("x_final", result.x_final, ("granule",), "length", "final granule position")
         self._put("v_final", result.v_final, ("granule",), "velocity", "final granule velocity")

@@ -15,7 +15,7 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import numpy as np
 
@@ -39,6 +39,9 @@ from .frame_scan import (CONTACT_PASSED, LEFT_WALL_PASSED, NO_PROBLEM, FrameArra
 from .kernel import chunk_kernel, synchronise
 from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
                       Features, State, Timestep)
+
+if TYPE_CHECKING:  # (annotations only: the scene module is not needed to step)
+    from ...scene import Scene
 
 __all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt"]
 
