@@ -108,44 +108,43 @@ def test_reused_frame_arrays_reach_a_slow_writer_intact():
     assert log.kept["x"][0][0] == 0 and log.kept["x"][-1][0] == 299  # ...but not the kept ones
 
 
+class _Sink:
+    """A frame writer that notes the steps of the frames it is given."""
+
+    def __init__(self):
+        self.seen = []
+
+    def write_frame(self, frame):
+        self.seen.append(frame.step)
+
+    def close(self, result):
+        pass
+
+
+def _record(log, steps, count):
+    for step in range(steps):
+        x, v, f = log.lend(count)
+        log.record(Frame(step, float(step), x, v, f, 0.0, 0.0, 0.0, 0.0, 1.0))
+
+
 def test_a_waiting_frame_reaches_the_writers_without_the_next_one():
     """The writers' thread finds recorded frames by itself: none waits for a later
     frame or for a driver's call (ParaView follows a running job)."""
-    seen = []
-
-    class Sink:
-        def write_frame(self, frame):
-            seen.append(frame.step)
-
-        def close(self, result):
-            pass
-
-    log = FrameLog([Sink()], keep=False, background=True)
-    for step in range(3):  # in quick succession, then nothing
-        x, v, f = log.lend(10_000)
-        log.record(Frame(step, float(step), x, v, f, 0.0, 0.0, 0.0, 0.0, 1.0))
+    sink = _Sink()
+    log = FrameLog([sink], keep=False, background=True)
+    _record(log, 3, 10_000)  # in quick succession, then nothing
     deadline = time.monotonic() + 10
-    while seen != [0, 1, 2] and time.monotonic() < deadline:
+    while sink.seen != [0, 1, 2] and time.monotonic() < deadline:
         time.sleep(0.001)
-    assert seen == [0, 1, 2]
+    assert sink.seen == [0, 1, 2]
     log.finish()
 
 
 def test_frames_recorded_just_before_finish_are_all_written():
     """finish() ends the writers' thread only once it has every frame recorded before."""
     for _ in range(20):
-        seen = []
-
-        class Sink:
-            def write_frame(self, frame):
-                seen.append(frame.step)
-
-            def close(self, result):
-                pass
-
-        log = FrameLog([Sink()], keep=False, background=True)
-        for step in range(5):
-            x, v, f = log.lend(4)
-            log.record(Frame(step, float(step), x, v, f, 0.0, 0.0, 0.0, 0.0, 1.0))
+        sink = _Sink()
+        log = FrameLog([sink], keep=False, background=True)
+        _record(log, 5, 4)
         log.finish()
-        assert seen == list(range(5))
+        assert sink.seen == list(range(5))
