@@ -136,6 +136,7 @@ class FrameLog:
     frame.
 
     The writers' thread looks for recorded frames every :data:`POLL_SECONDS`
+    (less often while none comes, down to every :data:`IDLE_POLL_SECONDS`)
     rather than being woken for each: waking a thread costs the recording
     thread tens of microseconds, as much as writing a frame of 10^4 granules.
     It takes each frame soon after it is recorded, so the same few arrays
@@ -149,6 +150,7 @@ class FrameLog:
     QUEUED = 4  #: frames that may wait for the writers' thread, at least
     QUEUED_BYTES = 16 * 2 ** 20  #: ... and more, up to 64, while they fit in this
     POLL_SECONDS = 0.0005  #: how often the writers' thread looks for recorded frames
+    IDLE_POLL_SECONDS = 0.008  #: ... and how seldom, at most, while none comes
 
     def __init__(self, writers: Sequence[FrameWriter] = (), keep: bool = True,
                  background: bool = False):
@@ -263,7 +265,7 @@ class FrameLog:
         self._handed += 1
 
     def _write_loop(self) -> None:
-        pending = self._pending
+        pending, pause = self._pending, self.POLL_SECONDS
         while True:
             try:
                 frame, slot = pending.popleft()
@@ -272,8 +274,11 @@ class FrameLog:
                     if not pending:
                         return
                     continue
-                time.sleep(self.POLL_SECONDS)
+                time.sleep(pause)
+                # looked in vain: look less often, down to IDLE_POLL_SECONDS
+                pause = min(2 * pause, self.IDLE_POLL_SECONDS)
                 continue
+            pause = self.POLL_SECONDS
             try:
                 if self._error is None:  # else drain: the caller raises the first error
                     for w in self.writers:
