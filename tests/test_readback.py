@@ -116,6 +116,29 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
     _assert_same(gc.read_run(tmp_path), result)
 
 
+def test_a_failed_write_behind_is_raised_and_the_file_closed(run, tmp_path):
+    """An error of the thread that writes full buffers reaches the caller, at the
+    next flush at the latest, and the file is closed all the same."""
+    scene, result = run
+    w = TrajectoryWriter(tmp_path, scene, 2, chunk_frames=2)
+    written = w._write_rows
+
+    def fail(buf, start, count):
+        if start > 0:
+            raise OSError("disk full")
+        written(buf, start, count)
+
+    w._write_rows = fail
+    with pytest.raises(OSError, match="disk full"):
+        with w:
+            for i in range(5):  # the second buffer fails behind; the flush at the end raises
+                w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], 0.5, 0.0, 0.0,
+                              0.0)
+    assert not w._h5.id.valid and w._pool is None
+    with h5py.File(tmp_path / "trajectory.h5") as h5:
+        assert np.array_equal(h5["x"][...], result.x[:2])
+
+
 def test_an_unclosed_trajectory_is_refused_and_keeps_its_frames(run, tmp_path):
     scene, result = run
     with TrajectoryWriter(tmp_path, scene, 2, chunk_frames=4) as w:

@@ -181,7 +181,7 @@ class TrajectoryWriter:
                  resume_frames: Optional[int] = None, model=None):
         self.path = Path(folder) / "trajectory.h5"
         self.count = int(count)
-        self.frames = 0
+        self.frames = 0  # frames handed to the file (written, or being written behind)
         self._units = scene.units if scene is not None else "scaled"
         self._rows = max(1, min(int(chunk_frames), _BUFFER_BYTES // (24 * max(self.count, 1))))
         self._buffer, self._spare = self._new_buffer(), None
@@ -387,8 +387,10 @@ class TrajectoryWriter:
                 if exc_type is None:
                     self.flush()
             finally:
-                self._stop_behind()
-                self._h5.close()
+                try:
+                    self._stop_behind()
+                finally:
+                    self._h5.close()
 
 
 class TrajectoryFrames:
