@@ -139,6 +139,8 @@ class FrameLog:
     (less often while none comes, down to every :data:`IDLE_POLL_SECONDS`)
     rather than being woken for each: waking a thread costs the recording
     thread tens of microseconds, as much as writing a frame of 10^4 granules.
+    It is woken only when the caller waits for it (a checkpoint's
+    :meth:`sync`, :meth:`finish`, or every frame array in its hands).
     It takes each frame soon after it is recorded, so the same few arrays
     cycle and stay in the recording core's cache: filling arrays that have
     left it costs twice as much.
@@ -168,6 +170,7 @@ class FrameLog:
         self._free: list = []  # the slot freed last is reused first: the likeliest in cache
         self._handed = self._written = 0
         self._closing = False
+        self._wake = threading.Event()  # set when the caller waits for the writers' thread
         self._made = 0
         self._lock = threading.Lock()
         if background and self.writers:
@@ -210,6 +213,7 @@ class FrameLog:
             return _Slot(count)
         while not self._free:  # every slot is held: wait for the writers' thread
             self._raise_error()
+            self._wake.set()
             time.sleep(self.POLL_SECONDS)
         return self._free.pop()
 
@@ -274,7 +278,8 @@ class FrameLog:
                     if not pending:
                         return
                     continue
-                time.sleep(pause)
+                self._wake.wait(pause)
+                self._wake.clear()
                 # looked in vain: look less often, down to IDLE_POLL_SECONDS
                 pause = min(2 * pause, self.IDLE_POLL_SECONDS)
                 continue
@@ -292,6 +297,7 @@ class FrameLog:
     def _wait_written(self) -> None:
         """Wait until the writers' thread has written every frame handed on."""
         while self._written < self._handed and self._thread.is_alive():
+            self._wake.set()  # (it may be looking seldom, after a pause in the frames)
             time.sleep(self.POLL_SECONDS)
 
     def sync(self) -> None:
@@ -331,6 +337,7 @@ class FrameLog:
         """Wait until every frame handed on is written (raises a writer's error)."""
         if self._thread is not None:
             self._closing = True
+            self._wake.set()
             self._thread.join()
             self._thread = None
         self._raise_error()
