@@ -211,10 +211,9 @@ class FrameLog:
         if self._made < self.queued + 3:
             self._made += 1
             return _Slot(count)
-        while not self._free:  # every slot is held: wait for the writers' thread
-            self._raise_error()
-            self._wake.set()
-            time.sleep(self.POLL_SECONDS)
+        # every slot is held: wait for the writers' thread to free one
+        self._wait_for_writers(lambda: self._free or self._error is not None)
+        self._raise_error()
         return self._free.pop()
 
     def _release(self, slot: Optional[_Slot]) -> None:
@@ -294,17 +293,18 @@ class FrameLog:
                 self._release(slot)
                 self._written += 1
 
-    def _wait_written(self) -> None:
-        """Wait until the writers' thread has written every frame handed on."""
-        while self._written < self._handed and self._thread.is_alive():
-            self._wake.set()  # (it may be looking seldom, after a pause in the frames)
+    def _wait_for_writers(self, done) -> None:
+        """Wake the writers' thread (it may be looking seldom, after a pause in the
+        frames) and wait until ``done()`` is true or the thread has ended."""
+        while not done() and self._thread.is_alive():
+            self._wake.set()
             time.sleep(self.POLL_SECONDS)
 
     def sync(self) -> None:
         """Every frame handed on is written and on disk (for a checkpoint): wait for
         the writers' thread, then flush each writer that buffers."""
-        if self._thread is not None:
-            self._wait_written()
+        if self._thread is not None:  # every frame handed on is written
+            self._wait_for_writers(lambda: self._written >= self._handed)
         self._raise_error()
         for w in self.writers:
             flush = getattr(w, "flush", None)
