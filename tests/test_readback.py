@@ -97,7 +97,8 @@ def test_physical_scene_gets_si_units(run, tmp_path):
 
 
 def test_writer_streams_in_bounded_chunks(run, tmp_path):
-    """Frames reach the file chunk by chunk; the buffer never holds more than chunk_frames."""
+    """Frames reach the file chunk by chunk (every variable the same frames); memory
+    holds one chunk of chunk_frames frames."""
     scene, result = run
     led = result.energy
     n = result.t.size
@@ -105,10 +106,13 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
         for i in range(7):
             w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
                           led.potential[i], led.coulomb[i], led.viscous[i])
-        assert w._buffer["x"].shape == (3, 2)
-        w._wait_behind()  # (the second chunk is written on the writer's own thread)
-        assert w.frames == 6 and w._h5["x"].shape == (6, 2) and w._h5["time"].shape == (6,)
-        assert np.array_equal(w._h5["v"][...], result.v[:6])
+        h5 = w._h5
+        assert w._states.values["x"].shape == (3, 2) and h5["x"].chunks == (3, 2)
+        assert w.frames == 7 and h5["x"].shape == (6, 2) and h5["time"].shape == (6,)
+        assert np.array_equal(h5["v"][...], result.v[:6])
+        assert np.array_equal(h5["kinetic"][...], led.kinetic[:6])
+        w.flush()  # the partial chunk too
+        assert h5["x"].shape == (7, 2) and np.array_equal(h5["time"][...], result.t[:7])
         for i in range(7, n):
             w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
                           led.potential[i], led.coulomb[i], led.viscous[i])
@@ -116,25 +120,25 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
     _assert_same(gc.read_run(tmp_path), result)
 
 
-def test_a_failed_write_behind_is_raised_and_the_file_closed(run, tmp_path):
-    """An error of the thread that writes full buffers reaches the caller, at the
-    next flush at the latest, and the file is closed all the same."""
+def test_a_failed_write_is_raised_and_the_file_closed(run, tmp_path):
+    """An error writing a chunk reaches the caller, and the file is closed all the
+    same with the chunks written before it."""
     scene, result = run
     w = TrajectoryWriter(tmp_path, scene, 2, chunk_frames=2)
-    written = w._write_rows
+    written = w._states.write
 
-    def fail(buf, start, count):
-        if start > 0:
+    def fail():
+        if w._states.base > 0:
             raise OSError("disk full")
-        written(buf, start, count)
+        written()
 
-    w._write_rows = fail
+    w._states.write = fail
     with pytest.raises(OSError, match="disk full"):
         with w:
-            for i in range(5):  # the second buffer fails behind; the flush at the end raises
+            for i in range(5):  # the second chunk fails
                 w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], 0.5, 0.0, 0.0,
                               0.0)
-    assert not w._h5.id.valid and w._pool is None
+    assert not w._h5.id.valid
     with h5py.File(tmp_path / "trajectory.h5") as h5:
         assert np.array_equal(h5["x"][...], result.x[:2])
 

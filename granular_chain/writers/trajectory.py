@@ -32,14 +32,15 @@ after the run: ``status`` (a name such as ``t_end``), ``status_code``,
 ``t_final``, ``energy_initial``, ``event_counts`` and ``info`` (JSON text).
 
 :class:`TrajectoryWriter` appends frames while a run goes (resizable datasets,
-at most ``chunk_frames`` frames buffered); :func:`write_trajectory` streams a
-finished :class:`~granular_chain.result.Result` through it.
+one chunk's worth of frames held in memory: a chunk of a (time, granule) array
+holds whole frames, at most 16 and at most 512 KiB, one of a (time,) array 512
+frames); :func:`write_trajectory` streams a finished
+:class:`~granular_chain.result.Result` through it.
 """
 
 from __future__ import annotations
 
 import json
-from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Optional
 
@@ -52,8 +53,10 @@ __all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
            "to_xarray", "FRAME_FIELDS", "LEDGER_FIELDS"]
 
 # Bounds of each of the two in-memory buffers and of one HDF5 chunk of a (time, granule) array.
-_BUFFER_BYTES = 16 * 2 ** 20
-_CHUNK_VALUES = 2 ** 17  # 1 MiB of float64: reading one frame reads little more than it
+# Values in one chunk of a (time, granule) array, at most: 512 KiB of float64, so
+# reading one frame reads little more than it (a chunk holds at least one frame).
+_CHUNK_VALUES = 2 ** 16
+_SERIES_ROWS = 512  # frames in one chunk of a (time,) array
 
 _UNITS = {  # CF / UDUNITS strings per kind of quantity
     "physical": {"time": "s", "length": "m", "velocity": "m s-1", "force": "N",
@@ -143,15 +146,60 @@ def granule_values(model) -> dict:
     return {name: getattr(model, attr) for name, (attr, _, _) in _GRANULE_FIELDS.items()}
 
 
+class _Block:
+    """The frames of one HDF5 chunk along time, for growable variables of the same
+    shape and chunks, (time,) or (time, granule): filled in memory, then written whole.
+
+    A chunk spans ``rows`` frames and every granule. The block starts at frame
+    ``base``, a multiple of ``rows``, and holds ``fill`` frames. :meth:`write`
+    stores it as one chunk per variable with HDF5's direct chunk write (no
+    selection, no type conversion, no chunk cache), after setting each
+    variable's length to ``base + fill``: a block written before it is full is
+    written again, whole, as it fills.
+    """
+
+    def __init__(self, h5, names):
+        self.datasets = {name: h5[name] for name in names}
+        self.ids = {name: ds.id for name, ds in self.datasets.items()}
+        first = next(iter(self.datasets.values()))
+        shape = first.chunks
+        if shape[1:] != first.shape[1:]:
+            raise ValueError(f"{h5.filename}: the chunks of {first.name} do not span a whole "
+                             f"frame ({shape}); this file cannot be continued")
+        self.rows, self.base, self.fill = shape[0], 0, 0
+        self.values = {name: np.zeros(shape) for name in names}
+
+    def start_at(self, frames: int) -> None:
+        """Continue after the first ``frames`` frames of the file (read back the
+        partial block they end in)."""
+        self.base = frames - frames % self.rows
+        self.fill = frames - self.base
+        for name, values in self.values.items():
+            values[:self.fill] = self.datasets[name][self.base:frames]
+
+    def write(self) -> None:
+        """Store the block in the file (each variable's length set to its last frame)."""
+        end = self.base + self.fill
+        for name, values in self.values.items():
+            dsid = self.ids[name]
+            dsid.set_extent((end, *values.shape[1:]))
+            dsid.write_direct_chunk((self.base,) + (0,) * (values.ndim - 1), values)
+
+    def next_block(self) -> None:
+        """The block is written and full: go on with the next one."""
+        self.base += self.rows
+        self.fill = 0
+
+
 class TrajectoryWriter:
     """Append output frames to ``folder/trajectory.h5`` while a run goes.
 
-    Frames are buffered, at most ``chunk_frames`` of them (fewer when N is so
-    large that the buffer would pass 16 MiB), and written with one resize and
-    one write per array, so memory does not grow with the number of frames.
-    A full buffer is written behind, on a thread of its own, while frames fill
-    the other one: the caller does not wait for the disk unless it falls a
-    whole buffer behind.
+    Frames are gathered in one HDF5 chunk's worth (``chunk_frames`` frames of the
+    (time, granule) arrays, fewer when N is so large that a chunk would pass
+    512 KiB; 512 frames of the (time,) ledger arrays), and each full chunk is
+    written as it is with HDF5's direct chunk write. So memory does not grow
+    with the number of frames, and writing a frame costs little more than
+    copying it into the chunk and the chunk into the file's pages.
 
     Parameters
     ----------
@@ -162,7 +210,7 @@ class TrajectoryWriter:
     count : int
         Number of granules N.
     chunk_frames : int
-        Frames buffered before a write.
+        Frames in one chunk of the (time, granule) arrays, at most.
     resume_frames : int, optional
         Continue an existing file after its first ``resume_frames`` frames (a run
         restarted from a checkpoint); later frames and the final state are dropped.
@@ -177,40 +225,37 @@ class TrajectoryWriter:
     frames and closes the file without a status (readers then refuse it).
     """
 
-    def __init__(self, folder, scene, count: int, *, chunk_frames: int = 64,
+    def __init__(self, folder, scene, count: int, *, chunk_frames: int = 16,
                  resume_frames: Optional[int] = None, model=None):
         self.path = Path(folder) / "trajectory.h5"
         self.count = int(count)
-        self.frames = 0  # frames handed to the file (written, or being written behind)
         self._units = scene.units if scene is not None else "scaled"
-        self._rows = max(1, min(int(chunk_frames), _BUFFER_BYTES // (24 * max(self.count, 1))))
-        self._buffer, self._spare = self._new_buffer(), None
-        self._fill = 0
-        self._behind: Optional[Future] = None  # the buffer being written behind
-        self._pool: Optional[ThreadPoolExecutor] = None
+        self._rows = max(1, min(int(chunk_frames), _CHUNK_VALUES // max(self.count, 1)))
         if resume_frames is not None:
             self._h5 = h5py.File(self.path, "a")
-            self._reopen(int(resume_frames))
-            return
-        self._h5 = h5py.File(self.path, "w", track_order=True)
+        else:
+            self._h5 = h5py.File(self.path, "w", track_order=True)
         try:
-            self._create(scene, model)
+            if resume_frames is None:
+                self._create(scene, model)
+            self._states = _Block(self._h5, FRAME_FIELDS)
+            self._ledger = _Block(self._h5, ("time", *_LEDGER_TERMS))
+            if resume_frames is not None:
+                self._reopen(int(resume_frames))
         except BaseException:
             self._h5.close()
             raise
 
-    def _new_buffer(self) -> dict:
-        """Room for ``_rows`` frames: time, x, v, f (rows, N) and the ledger terms."""
-        names = ("time", *FRAME_FIELDS, *_LEDGER_TERMS)
-        return {name: np.empty((self._rows, self.count) if name in FRAME_FIELDS else self._rows)
-                for name in names}
+    @property
+    def frames(self) -> int:
+        """Frames written so far (in the file, or in the chunk being filled)."""
+        return self._ledger.base + self._ledger.fill
 
     def _reopen(self, frames: int) -> None:
         """Continue a file from its first ``frames`` frames (a run restarted from a
         checkpoint): later frames and what :meth:`close` wrote are dropped."""
         h5 = self._h5
         if h5["time"].shape[0] < frames:
-            h5.close()
             raise ValueError(f"{self.path} holds {h5['time'].shape[0]} frames, fewer than the "
                              f"checkpoint's {frames}")
         for name in ("balance", "x_final", "v_final", "event_time", "event_kind", "event_index",
@@ -223,23 +268,22 @@ class TrajectoryWriter:
                 del h5.attrs[name]
         for name in ("time", *FRAME_FIELDS, *_LEDGER_TERMS):
             h5[name].resize(frames, axis=0)
-        self.frames = frames
+        for block in (self._states, self._ledger):
+            block.start_at(frames)
 
     def _create(self, scene, model) -> None:
         h5, n = self._h5, self.count
         h5.attrs.update(root_attrs(scene))
         time = h5.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
-                                 chunks=(max(self._rows, 512),))
+                                 chunks=(_SERIES_ROWS,))
         time.attrs.update({**_attrs(self._units, "time", "time"), "axis": "T"})
         time.make_scale("time")
         granule = h5.create_dataset("granule", data=np.arange(n, dtype=np.int64))
         granule.attrs.update(_attrs(self._units, "", "granule index, 0 at the left end"))
         granule.make_scale("granule")
-        cols = min(n, _CHUNK_VALUES)
-        rows = max(1, min(self._rows, _CHUNK_VALUES // cols))
-        for name, (kind, text) in FRAME_FIELDS.items():
+        for name, (kind, text) in FRAME_FIELDS.items():  # a chunk: whole frames
             ds = h5.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
-                                   chunks=(rows, cols))
+                                   chunks=(self._rows, n))
             ds.attrs.update(_attrs(self._units, kind, text))
             ds.dims[0].attach_scale(time)
             ds.dims[1].attach_scale(granule)
@@ -288,59 +332,32 @@ class TrajectoryWriter:
             Energy dissipated by dashpots and work of moving walls and body forces
             so far, scene units of energy (0 when absent).
         """
-        i, buf = self._fill, self._buffer
-        buf["time"][i] = t
-        buf["x"][i], buf["v"][i], buf["f"][i] = x, v, f
+        states, ledger = self._states, self._ledger
+        i, values = states.fill, states.values
+        values["x"][i], values["v"][i], values["f"][i] = x, v, f
+        j, series = ledger.fill, ledger.values
+        series["time"][j] = t
         for name, value in zip(_LEDGER_TERMS, (kinetic, potential, coulomb, viscous,
                                                contact_dissipated, wall_work, body_work)):
-            buf[name][i] = value
-        self._fill += 1
-        if self._fill == self._rows:
-            self._write_behind()
+            series[name][j] = value
+        states.fill += 1
+        ledger.fill += 1
+        if states.fill == states.rows or ledger.fill == ledger.rows:
+            self._write_blocks()
 
-    def _write_behind(self) -> None:
-        """Hand the full buffer to the writing thread and go on in the other one."""
-        self._wait_behind()  # (the other buffer is free once it is written)
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(1, thread_name_prefix="trajectory-h5")
-        full, start = self._buffer, self.frames
-        self._behind = self._pool.submit(self._write_rows, full, start, self._fill)
-        self.frames += self._fill
-        self._buffer, self._spare = self._spare or self._new_buffer(), full
-        self._fill = 0
-
-    def _wait_behind(self) -> None:
-        """Wait for the buffer being written behind (raises its error)."""
-        behind, self._behind = self._behind, None
-        if behind is not None:
-            behind.result()
-
-    def _write_rows(self, buf: dict, start: int, count: int) -> None:
-        """Append ``count`` buffered frames at frame ``start``; the file to disk."""
-        for name, rows in buf.items():
-            ds = self._h5[name]
-            ds.resize(start + count, axis=0)
-            ds[start:start + count] = rows[:count]
-        self._h5.flush()
+    def _write_blocks(self) -> None:
+        """Write both blocks (so every variable has the same frames), going on with
+        the next block of each that is full."""
+        for block in (self._states, self._ledger):
+            block.write()
+            if block.fill == block.rows:
+                block.next_block()
 
     def flush(self) -> None:
-        """Write the buffered frames to the file (and the file to disk)."""
-        self._wait_behind()
-        if self._fill:
-            self._write_rows(self._buffer, self.frames, self._fill)
-            self.frames += self._fill
-            self._fill = 0
-        else:
-            self._h5.flush()
-
-    def _stop_behind(self) -> None:
-        """No more writing behind: the thread ends (after its last buffer)."""
-        try:
-            self._wait_behind()
-        finally:
-            if self._pool is not None:
-                self._pool.shutdown()
-                self._pool = None
+        """Write the frames gathered so far to the file (and the file to the system)."""
+        if self._states.fill or self._ledger.fill:
+            self._write_blocks()
+        self._h5.flush()
 
     def close(self, result) -> None:
         """Flush, then write the ledger balance, final state, events and status; close the file.
@@ -350,10 +367,7 @@ class TrajectoryWriter:
         result : Result
             The finished run (its energy, final state, events and status; scene units).
         """
-        try:
-            self.flush()
-        finally:
-            self._stop_behind()
+        self.flush()
         h5 = self._h5
         bal = self._series("balance")
         bal.resize(self.frames, axis=0)
@@ -387,10 +401,7 @@ class TrajectoryWriter:
                 if exc_type is None:
                     self.flush()
             finally:
-                try:
-                    self._stop_behind()
-                finally:
-                    self._h5.close()
+                self._h5.close()
 
 
 class TrajectoryFrames:
