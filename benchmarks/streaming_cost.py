@@ -17,7 +17,9 @@ closing the files are counted (a fixed cost: the shorter the run, the larger
 its share); ``loop_relative`` is the rate of the stepping loop alone (the
 Result's ``wall_time``, from the first frame to the last), without the time
 spent outside it (``outside_loop_s``: setting the run up, then finishing the
-files). ``--out`` picks the folder
+files). ``round_relative_median`` is the median over the rounds of each round's
+ratio to that round's ``none`` (the ways run in turn, so a drift of the machine's
+speed between rounds cancels out). ``--out`` picks the folder
 written to (a RAM disk such as /dev/shm leaves the disk's own speed out).
 
     python benchmarks/streaming_cost.py --grains 10000 --steps 100000 --every 100
@@ -25,6 +27,7 @@ written to (a RAM disk such as /dev/shm leaves the disk's own speed out).
 
 import argparse
 import json
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -77,6 +80,7 @@ def main():
     ways = ("none", "frames", "trajectory", "all")
     best = {w: (float("inf"), 0, float("inf")) for w in ways}
     loop = {w: float("inf") for w in ways}
+    rounds = {w: [] for w in ways}  # each round's seconds: the ratio to that round's "none"
     with tempfile.TemporaryDirectory(dir=a.out) as tmp:
         run("none", a.grains, 10, 5, a.features, Path(tmp))  # compile or load the kernel
         for _ in range(a.repeat):
@@ -85,6 +89,7 @@ def main():
                 folder.mkdir(exist_ok=True)
                 seconds, frames, stepping = run(w, a.grains, a.steps, a.every, a.features, folder)
                 best[w] = min(best[w], (seconds, frames, stepping))
+                rounds[w].append(seconds)
                 loop[w] = min(loop[w], stepping)
     base = a.grains * a.steps / best["none"][0]
     for w in ways:
@@ -96,6 +101,8 @@ def main():
                           "grain_steps_per_s": rate, "relative": rate / base,
                           "us_per_frame": per_frame * 1e6,
                           "loop_relative": loop["none"] / loop[w],
+                          "round_relative_median": statistics.median(
+                              n / t for n, t in zip(rounds["none"], rounds[w])),
                           "outside_loop_s": seconds - stepping}))
 
 

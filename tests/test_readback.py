@@ -120,6 +120,29 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
     _assert_same(gc.read_run(tmp_path), result)
 
 
+def test_a_file_continued_inside_a_chunk_keeps_its_frames(run, tmp_path):
+    """A run restarted at a frame inside a chunk: the chunk's first frames are read
+    back and written again with the ones that follow, later frames of the first
+    run are dropped, and the file equals one written in one go."""
+    scene, result = run
+    led = result.energy
+
+    def write(w, a, b):
+        for i in range(a, b):
+            w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
+                          led.potential[i], led.coulomb[i], led.viscous[i])
+
+    with TrajectoryWriter(tmp_path, scene, 2, chunk_frames=4) as w:
+        write(w, 0, 10)
+        w.flush()  # a checkpoint at frame 10, inside the third chunk
+        write(w, 10, 13)  # frames after it, then the run is stopped
+    with TrajectoryWriter(tmp_path, scene, 2, chunk_frames=4, resume_frames=10) as w:
+        assert w.frames == 10 and w._states.base == 8 and w._states.fill == 2
+        write(w, 10, result.t.size)
+        w.close(result)
+    _assert_same(gc.read_run(tmp_path), result)
+
+
 def test_a_failed_write_is_raised_and_the_file_closed(run, tmp_path):
     """An error writing a chunk reaches the caller, and the file is closed all the
     same with the chunks written before it."""
