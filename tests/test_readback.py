@@ -113,7 +113,13 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
         assert np.array_equal(h5["kinetic"][...], led.kinetic[:6])
         w.flush()  # the partial chunk too
         assert h5["x"].shape == (7, 2) and np.array_equal(h5["time"][...], result.t[:7])
-        for i in range(7, n):
+        for i in range(7, 9):  # a chunk just full, the ledger's not: flushed, no chunk past it
+            w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
+                          led.potential[i], led.coulomb[i], led.viscous[i])
+        w.flush()
+        assert h5["x"].shape == (9, 2) and h5["time"].shape == (9,)
+        assert h5["x"].id.get_num_chunks() == 3
+        for i in range(9, n):
             w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
                           led.potential[i], led.coulomb[i], led.viscous[i])
         w.close(result)

@@ -52,7 +52,6 @@ from ..result import TERMS_ADDED, ledger_balance
 __all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
            "to_xarray", "FRAME_FIELDS", "LEDGER_FIELDS"]
 
-# Bounds of each of the two in-memory buffers and of one HDF5 chunk of a (time, granule) array.
 # Values in one chunk of a (time, granule) array, at most: 512 KiB of float64, so
 # reading one frame reads little more than it (a chunk holds at least one frame).
 _CHUNK_VALUES = 2 ** 16
@@ -179,7 +178,10 @@ class _Block:
             values[:self.fill] = self.datasets[name][self.base:frames]
 
     def write(self) -> None:
-        """Store the block in the file (each variable's length set to its last frame)."""
+        """Store the block in the file (each variable's length set to its last frame);
+        nothing when it is empty (the chunk before it is in the file)."""
+        if not self.fill:
+            return
         end = self.base + self.fill
         for name, values in self.values.items():
             dsid = self.ids[name]
