@@ -96,6 +96,14 @@ def test_physical_scene_gets_si_units(run, tmp_path):
                      "mass": "kg", "friction_viscous": "kg s-1", "granule": "1"}
 
 
+def _write(w, result, a, b):
+    """Frames a..b-1 of ``result`` through a TrajectoryWriter."""
+    led = result.energy
+    for i in range(a, b):
+        w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
+                      led.potential[i], led.coulomb[i], led.viscous[i])
+
+
 def test_writer_streams_in_bounded_chunks(run, tmp_path):
     """Frames reach the file chunk by chunk (every variable the same frames); memory
     holds one chunk of chunk_frames frames."""
@@ -103,9 +111,7 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
     led = result.energy
     n = result.t.size
     with TrajectoryWriter(tmp_path, scene, 2, chunk_frames=3) as w:
-        for i in range(7):
-            w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
-                          led.potential[i], led.coulomb[i], led.viscous[i])
+        _write(w, result, 0, 7)
         h5 = w._h5
         assert w._states.values["x"].shape == (3, 2) and h5["x"].chunks == (3, 2)
         assert w.frames == 7 and h5["x"].shape == (6, 2) and h5["time"].shape == (6,)
@@ -113,15 +119,11 @@ def test_writer_streams_in_bounded_chunks(run, tmp_path):
         assert np.array_equal(h5["kinetic"][...], led.kinetic[:6])
         w.flush()  # the partial chunk too
         assert h5["x"].shape == (7, 2) and np.array_equal(h5["time"][...], result.t[:7])
-        for i in range(7, 9):  # a chunk just full, the ledger's not: flushed, no chunk past it
-            w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
-                          led.potential[i], led.coulomb[i], led.viscous[i])
+        _write(w, result, 7, 9)  # a chunk just full, the ledger's not: flushed, no chunk past it
         w.flush()
         assert h5["x"].shape == (9, 2) and h5["time"].shape == (9,)
         assert h5["x"].id.get_num_chunks() == 3
-        for i in range(9, n):
-            w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
-                          led.potential[i], led.coulomb[i], led.viscous[i])
+        _write(w, result, 9, n)
         w.close(result)
     _assert_same(gc.read_run(tmp_path), result)
 
@@ -131,20 +133,13 @@ def test_a_file_continued_inside_a_chunk_keeps_its_frames(run, tmp_path):
     back and written again with the ones that follow, later frames of the first
     run are dropped, and the file equals one written in one go."""
     scene, result = run
-    led = result.energy
-
-    def write(w, a, b):
-        for i in range(a, b):
-            w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
-                          led.potential[i], led.coulomb[i], led.viscous[i])
-
     with TrajectoryWriter(tmp_path, scene, 2, chunk_frames=4) as w:
-        write(w, 0, 10)
+        _write(w, result, 0, 10)
         w.flush()  # a checkpoint at frame 10, inside the third chunk
-        write(w, 10, 13)  # frames after it, then the run is stopped
+        _write(w, result, 10, 13)  # frames after it, then the run is stopped
     with TrajectoryWriter(tmp_path, scene, 2, chunk_frames=4, resume_frames=10) as w:
         assert w.frames == 10 and w._states.base == 8 and w._states.fill == 2
-        write(w, 10, result.t.size)
+        _write(w, result, 10, result.t.size)
         w.close(result)
     _assert_same(gc.read_run(tmp_path), result)
 

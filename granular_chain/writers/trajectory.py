@@ -160,7 +160,6 @@ class _Block:
 
     def __init__(self, h5, names):
         self.datasets = {name: h5[name] for name in names}
-        self.ids = {name: ds.id for name, ds in self.datasets.items()}
         first = next(iter(self.datasets.values()))
         shape = first.chunks
         if shape[1:] != first.shape[1:]:
@@ -184,7 +183,7 @@ class _Block:
             return
         end = self.base + self.fill
         for name, values in self.values.items():
-            dsid = self.ids[name]
+            dsid = self.datasets[name].id
             dsid.set_extent((end, *values.shape[1:]))
             dsid.write_direct_chunk((self.base,) + (0,) * (values.ndim - 1), values)
 
@@ -233,14 +232,14 @@ class TrajectoryWriter:
         self.path = Path(folder) / "trajectory.h5"
         self.count = int(count)
         self._units = scene.units if scene is not None else "scaled"
-        self._rows = max(1, min(int(chunk_frames), _CHUNK_VALUES // max(self.count, 1)))
         if resume_frames is not None:
             self._h5 = h5py.File(self.path, "a")
         else:
             self._h5 = h5py.File(self.path, "w", track_order=True)
         try:
-            if resume_frames is None:
-                self._create(scene, model)
+            if resume_frames is None:  # (a continued file keeps its chunks)
+                self._create(scene, model, max(1, min(int(chunk_frames),
+                                                      _CHUNK_VALUES // max(self.count, 1))))
             self._states = _Block(self._h5, FRAME_FIELDS)
             self._ledger = _Block(self._h5, ("time", *_LEDGER_TERMS))
             if resume_frames is not None:
@@ -274,7 +273,9 @@ class TrajectoryWriter:
         for block in (self._states, self._ledger):
             block.start_at(frames)
 
-    def _create(self, scene, model) -> None:
+    def _create(self, scene, model, rows: int) -> None:
+        """The variables, dimensions and attributes of a new file; ``rows``: frames in
+        a chunk of the (time, granule) arrays."""
         h5, n = self._h5, self.count
         h5.attrs.update(root_attrs(scene))
         time = h5.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
@@ -286,7 +287,7 @@ class TrajectoryWriter:
         granule.make_scale("granule")
         for name, (kind, text) in FRAME_FIELDS.items():  # a chunk: whole frames
             ds = h5.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype="f8",
-                                   chunks=(self._rows, n))
+                                   chunks=(rows, n))
             ds.attrs.update(_attrs(self._units, kind, text))
             ds.dims[0].attach_scale(time)
             ds.dims[1].attach_scale(granule)
