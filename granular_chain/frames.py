@@ -158,7 +158,7 @@ class FrameLog:
                  background: bool = False):
         self.writers = list(writers)
         self.keep = keep
-        self.kept = {name: [] for name in self._FIELDS}
+        self.kept = {name: [] for name in self._FIELDS}  # (sets _newest too)
         self.count = 0
         self.max_balance_error = 0.0
         self.queued = self.QUEUED
@@ -177,6 +177,21 @@ class FrameLog:
             self._thread = threading.Thread(target=self._write_loop, name="frame-writers",
                                             daemon=True)
             self._thread.start()
+
+    @property
+    def kept(self) -> dict:
+        """The kept frames: field name -> list of values, one per kept frame (every
+        frame, or the first and the latest)."""
+        if self._newest is not None:  # the latest frame, taken in only when read
+            frame, self._newest = self._newest, None
+            kept = self._kept
+            for name, value in zip(self._FIELDS, self._VALUES(frame)):
+                kept[name][-1] = value
+        return self._kept
+
+    @kept.setter
+    def kept(self, kept: dict) -> None:
+        self._kept, self._newest = kept, None
 
     def lend(self, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Arrays (x, v, f), each of shape (count,), for the driver to fill with the
@@ -246,13 +261,11 @@ class FrameLog:
         self._hand_on(frame, slot)
         self.count += 1
         self.max_balance_error = max(self.max_balance_error, frame.balance_error)
-        kept = self.kept
-        values = zip(self._FIELDS, self._VALUES(frame))
-        if not self.keep and len(kept["t"]) >= 2:  # keep the first, replace the latest
-            for name, value in values:
-                kept[name][-1] = value
+        if not self.keep and len(self._kept["t"]) >= 2:
+            self._newest = frame  # replaces the latest kept, when next read (:attr:`kept`)
         else:
-            for name, value in values:
+            kept = self.kept
+            for name, value in zip(self._FIELDS, self._VALUES(frame)):
                 kept[name].append(value)
         if self.count > 1:  # (the first frame is kept for good)
             self._latest, superseded = slot, self._latest

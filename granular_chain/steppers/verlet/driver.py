@@ -286,6 +286,7 @@ class VerletRun:
         self.state = State(self.u, self.v, self.f, active, self.ledger, self.counts)
         self.opening = 1  # the next call opens the leapfrog (Coulomb runs): v is synchronised
         self.buffers = self.event_log.buffers if self.event_log else new_event_log(N, 0, 0)
+        self._call_key = self._call_records = None  # the last call's (steps, opening) and records
         if self.forced:
             self.forced_features, self.forcing, self.fstate = forced_records(
                 model, self.state, self.stop_mode)
@@ -294,6 +295,7 @@ class VerletRun:
             self.kernel = specialised(chunk_kernel(self.features),
                                       self._records(self._control(1)), (0,))
         self._scan_codes = ScanCodes(int(feat.law), int(feat.left_wall), int(feat.right_wall))
+        self._fixed_walls = None if feat.driven else model.walls  # (scan: walls_at otherwise)
         self._v2 = np.empty(N)
         x = np.empty(N)
         self._scanner = specialised(scan_frame, (
@@ -339,9 +341,11 @@ class VerletRun:
             t_now); the frame's arrays are written into those the frame log lends.
         """
         x, v, f = self.log.lend(self.model.count)
-        out = FrameArrays(x, v, f, self._v2)
-        return Scan(*self._scanner(self._scan_codes, self.chain, walls_at(self.model, self.t_now),
-                                   self.u, self.vs, self.f, self.model.x0, out))
+        walls = self._fixed_walls
+        if walls is None:
+            walls = walls_at(self.model, self.t_now)
+        return Scan(*self._scanner(self._scan_codes, self.chain, walls, self.u, self.vs, self.f,
+                                   self.model.x0, FrameArrays(x, v, f, self._v2)))
 
     def _added_terms(self):
         """(contact_dissipated, wall_work, body_work) now (forced scenes)."""
@@ -409,6 +413,7 @@ class VerletRun:
         # run that stops at rest is tested here at the end of every call, wherever
         # calls end, so its stop step does not depend on them.
         rest_watch = self.merged and bool(self.stop_mode & STOP_ON_REST)
+        chunk_done = int(Pause.CHUNK_DONE)  # (a plain int: compared after every call)
         while self.steps < self.n_total or (self.last_dt and not self.short_taken):
             if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
                 self._begin_short_step()
@@ -420,7 +425,7 @@ class VerletRun:
             code = self._advance(chunk, int(target) - self.steps)
             if rest_watch:
                 code = self._synchronise(code)
-            at_frame = self.steps >= self.next_frame or code != Pause.CHUNK_DONE or stop.requested
+            at_frame = self.steps >= self.next_frame or code != chunk_done or stop.requested
             at_thermo = self.steps >= self.next_thermo
             at_ck = self.steps >= self.next_ck
             if at_frame or at_thermo:
@@ -455,7 +460,8 @@ class VerletRun:
         its extra frame is recorded, so a run continued from it writes the frames of
         the cadence only, as the run that was never stopped.
         """
-        if self._finished():
+        finished = self._finished()
+        if finished:
             stop = _NO_STOP  # every step is taken: the run ends as if no stop had come
         if stop.requested and ended is None and self.steps < self.next_frame:
             self._checkpoint()
@@ -463,7 +469,7 @@ class VerletRun:
             return self._interrupted(stop)
         self.log.record(frame)
         self.next_frame = min(self.steps + self.plan.every, self.n_total)
-        if self._finished() and ended is None and self.thermo is not None \
+        if finished and ended is None and self.thermo is not None \
                 and self.thermo.last_step != self.steps:
             self.thermo.write_frame(frame)  # the thermo log ends at the run's end
         if ended is not None:
@@ -559,7 +565,7 @@ class VerletRun:
         return self.features, self.chain, self.timestep, self.state, control, self.buffers
 
     def _advance(self, chunk, n_steps: int) -> int:
-        taken, code = self._call(chunk, self._control(n_steps))
+        taken, code = self._call(chunk, n_steps)
         if taken == 0:  # a call always advances; guard against an endless loop
             raise RuntimeError("internal error: the Verlet kernel took no step")
         self.opening = 0
@@ -570,13 +576,17 @@ class VerletRun:
             self.bar.set_postfix_str(f"t = {self.t_now:.4g} / {self.t_end:g}", refresh=False)
         return code
 
-    def _call(self, chunk, control: Call):
-        """One kernel call (taken, code); with output.events, its events drained
-        into the event log (calling again while the log fills)."""
-        if self.event_log is None:
-            return chunk.call(self.kernel, self._records(control))
-        return self.event_log.call(lambda c: chunk.call(self.kernel, self._records(c)), control,
-                                   self.steps)
+    def _call(self, chunk, n_steps: int):
+        """One kernel call of at most ``n_steps`` steps (taken, code); with
+        output.events, its events drained into the event log (calling again while
+        the log fills)."""
+        if self.event_log is not None:
+            return self.event_log.call(lambda c: chunk.call(self.kernel, self._records(c)),
+                                       self._control(n_steps), self.steps)
+        key = (n_steps, self.opening)
+        if key != self._call_key:  # (a frame cadence repeats the same call: built once)
+            self._call_key, self._call_records = key, self._records(self._control(n_steps))
+        return chunk.call(self.kernel, self._call_records)
 
     def _begin_short_step(self) -> None:
         if self.event_log is not None and self.merged:  # the half kick ending the last whole step
@@ -588,6 +598,7 @@ class VerletRun:
                                 0.5 * self.timestep.dt)
             self.opening = 1
         self.timestep = Timestep(self.last_dt, *_drift_coefficients(self.model, self.last_dt))
+        self._call_key = None  # (the kernel's records hold the step)
         if self.forced:  # the short step starts at t_now: its clock restarts there
             self.fstate.clock[:] = (self.t_now, 0.0)
         self.n_total += 1
