@@ -77,6 +77,26 @@ def test_scan_finds_passed_contacts_and_walls():
     assert run.scan()[1:3] == (RIGHT_WALL_PASSED, model.count - 1)
 
 
+def test_scan_without_reach_skips_only_the_passing_check():
+    """After a kernel call that ended with CHUNK_DONE the driver scans without
+    looking for passed contacts (the kernel checked every step): the frame's arrays,
+    energies and NaN check are the same, only ``problem`` stays NO_PROBLEM."""
+    run, model = _run(SCENES["linear, walls"])
+    olim = run.chain.olim
+    run.u[:] = 0.0
+    run.u[4], run.u[5] = 0.5 * olim[5], -0.5 * olim[5]  # contact 4 at its limit
+    run.vs[:] = np.linspace(-1.0, 1.0, model.count)
+    full = run.scan()
+    x_full = run.log.lend(model.count)[0].copy()
+    run.u[2] = np.nan
+    assert run.scan(reach=False).nonfinite == 2
+    run.u[2] = 0.0
+    fast = run.scan(reach=False)
+    assert full.problem == CONTACT_PASSED
+    assert fast == Scan(-1, NO_PROBLEM, -1, 0.0, full.kinetic, full.potential)
+    assert np.array_equal(run.log.lend(model.count)[0], x_full)
+
+
 def test_reused_frame_arrays_reach_a_slow_writer_intact():
     """Frames of 3 granules through the writers' thread, which is slower than the
     frames come: the log reuses a frame's arrays only once they are written."""

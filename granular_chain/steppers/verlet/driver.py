@@ -300,7 +300,7 @@ class VerletRun:
         x = np.empty(N)
         self._scanner = specialised(scan_frame, (
             self._scan_codes, self.chain, model.walls, self.u, self.vs, self.f, model.x0,
-            FrameArrays(x, x, x, self._v2)), (0,))
+            FrameArrays(x, x, x, self._v2), 1), (0,))
         ke0, pe0 = model.energies(self.u, self.v)
         self.e0 = ke0 + pe0
         self.steps, self.t_now, self.dt_now = 0, 0.0, dt
@@ -330,8 +330,14 @@ class VerletRun:
         return Frame(self.steps, self.t_now, x, v, f, ke, pe,
                      self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
 
-    def scan(self) -> Scan:
+    def scan(self, reach: bool = True) -> Scan:
         """Read the state off in one compiled pass (:func:`.frame_scan.scan_frame`).
+
+        Parameters
+        ----------
+        reach : bool
+            Look for centres that met or a granule past a wall (False after a
+            kernel call that ended with Pause.CHUNK_DONE: the kernel found none).
 
         Returns
         -------
@@ -345,7 +351,7 @@ class VerletRun:
         if walls is None:
             walls = walls_at(self.model, self.t_now)
         return Scan(*self._scanner(self._scan_codes, self.chain, walls, self.u, self.vs, self.f,
-                                   self.model.x0, FrameArrays(x, v, f, self._v2)))
+                                   self.model.x0, FrameArrays(x, v, f, self._v2), int(reach)))
 
     def _added_terms(self):
         """(contact_dissipated, wall_work, body_work) now (forced scenes)."""
@@ -622,7 +628,7 @@ class VerletRun:
         """``((status, message) or None, scan)``: whether the run ends here, and the
         :meth:`scan` of the state it ends or goes on with."""
         dt, T = self.plan.dt, self.T
-        scan = self.scan()
+        scan = self.scan(reach=code != Pause.CHUNK_DONE)
         if scan.nonfinite >= 0:
             return (Status.NONFINITE, (
                 f"non-finite state by t = {self.t_now:.6g} at granule {scan.nonfinite}: the "

@@ -2,8 +2,9 @@
 
 At a frame the driver needs the frame's arrays (x = x0 + u, v, f), whether the
 state is finite, whether two centres have met or a granule has passed a wall
-(the one-sided contact model then no longer describes the scene), and the
-kinetic and elastic energies of the ledger. Written with numpy these are about
+(the one-sided contact model then no longer describes the scene; the kernels
+check it after every step, so the scan looks only when a call ended early), and
+the kinetic and elastic energies of the ledger. Written with numpy these are about
 a dozen passes over the N granules and as many temporary arrays, which on a
 long chain cost as much as tens of steps. :func:`scan_frame` makes one pass,
 writes into arrays the frame log lends (:meth:`granular_chain.frames.FrameLog.lend`)
@@ -91,7 +92,7 @@ class Scan(NamedTuple):
 
 
 @numba.njit(cache=True)
-def scan_frame(codes, chain, walls, u, v, f, x0, out):
+def scan_frame(codes, chain, walls, u, v, f, x0, out, reach):
     """Fill the frame's arrays from the state and check it, in one pass.
 
     Parameters
@@ -110,6 +111,10 @@ def scan_frame(codes, chain, walls, u, v, f, x0, out):
         Initial centre positions.
     out : FrameArrays
         Written: x = x0 + u, v, f, and v^2.
+    reach : int
+        1: look for centres that met and granules past a wall; 0: skip it (a
+        kernel call that ended with Pause.CHUNK_DONE found none after any of its
+        steps: every kernel checks after each step and pauses with Status.OVERLAP).
 
     Returns
     -------
@@ -135,7 +140,9 @@ def scan_frame(codes, chain, walls, u, v, f, x0, out):
             if not (np.isfinite(u[i]) and np.isfinite(v[i])):
                 first = i
                 break
-    problem, index, overlap = _passed(left_wall, right_wall, chain, walls, u)
+    problem, index, overlap = NO_PROBLEM, -1, 0.0
+    if reach:
+        problem, index, overlap = _passed(left_wall, right_wall, chain, walls, u)
     kinetic = 0.5 * np.dot(chain.mass, out.v2)
     potential = potential_energy(law, left_wall, right_wall, u, chain.d0, chain.k, chain.n,
                                  walls)
