@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Optional
 
 import h5py
+import numba
 import numpy as np
 
 from ..result import TERMS_ADDED, ledger_balance
@@ -90,6 +91,26 @@ _GRANULE_FIELDS = {
     "friction_static": ("eta_static", "force", "static friction threshold"),
     "friction_viscous": ("gamma", "damping", "hydrodynamic friction coefficient"),
 }
+
+
+@numba.njit(nogil=True, cache=True)
+def _copy_frame(row, x_rows, v_rows, f_rows, x, v, f):
+    """Copy one frame's x, v, f (shape (N,)) into row ``row`` of a block's
+    (rows, N) arrays, without the GIL.
+
+    Three numpy copies would let go of the GIL and take it back three times a
+    frame; each time the stepping thread may be waiting for it (measured: a
+    streamed run of 10^4 granules, a frame every 100 steps, 0.91 of the rate
+    without output against 0.94 with this one call).
+    """
+    x_rows[row, :] = x
+    v_rows[row, :] = v
+    f_rows[row, :] = f
+
+
+def _doubles(a) -> np.ndarray:
+    """``a`` as a contiguous float64 array (itself when it is one already)."""
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def _attrs(units_system: str, kind: str, long_name: str) -> dict:
@@ -241,6 +262,9 @@ class TrajectoryWriter:
                 self._create(scene, model, max(1, min(int(chunk_frames),
                                                       _CHUNK_VALUES // max(self.count, 1))))
             self._states = _Block(self._h5, FRAME_FIELDS)
+            rows = [self._states.values[name] for name in FRAME_FIELDS]
+            # compiled (or loaded from the cache) here, not by the writers' thread mid-run
+            _copy_frame(0, *rows, *(r[0] for r in rows))
             self._ledger = _Block(self._h5, ("time", *_LEDGER_TERMS))
             if resume_frames is not None:
                 self._reopen(int(resume_frames))
@@ -337,8 +361,9 @@ class TrajectoryWriter:
             so far, scene units of energy (0 when absent).
         """
         states, ledger = self._states, self._ledger
-        i, values = states.fill, states.values
-        values["x"][i], values["v"][i], values["f"][i] = x, v, f
+        values = states.values
+        _copy_frame(states.fill, values["x"], values["v"], values["f"], _doubles(x),
+                    _doubles(v), _doubles(f))
         j, series = ledger.fill, ledger.values
         series["time"][j] = t
         for name, value in zip(_LEDGER_TERMS, (kinetic, potential, coulomb, viscous,
