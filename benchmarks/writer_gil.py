@@ -12,8 +12,11 @@ writing the frames:
 - ``hold_U``: the same, with a writer that holds the GIL U microseconds a frame.
 
 The ways run in turn, --repeat rounds. Prints one JSON line per way: the best
-time, the rate relative to ``none`` from the best runs, and the median over the
-rounds of each round's ratio to that round's ``none``.
+time, the rate relative to ``none`` from the best runs, the median over the
+rounds of each round's ratio to that round's ``none``, and the calling (stepping)
+thread's own CPU time in the median run (``thread_cpu_s``, from
+``time.thread_time``) with the median of the wall time it spent off the CPU
+(``waiting_s``: waiting for the GIL, or descheduled).
 
     python benchmarks/writer_gil.py --grains 10000 --steps 100000 --every 100 --hold 0,10,30,100
 """
@@ -41,8 +44,9 @@ class HoldingWriter:
         pass
 
 
-def run(way: str, grains: int, steps: int, every: int) -> float:
-    """Seconds of one run of ``way`` (``none``, ``frames`` or ``hold_U``)."""
+def run(way: str, grains: int, steps: int, every: int) -> tuple[float, float]:
+    """Wall and calling-thread CPU seconds of one run of ``way`` (``none``,
+    ``frames`` or ``hold_U``)."""
     s = gc.scene_from_dict({
         "name": "writer_gil",
         "granules": {"count": grains, "velocity": {0: 1.0}},
@@ -52,9 +56,9 @@ def run(way: str, grains: int, steps: int, every: int) -> float:
     writers = []
     if way.startswith("hold_"):
         writers.append(HoldingWriter(float(way[5:]) * 1e-6))
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.thread_time()
     gc.simulate(s, progress=False, writers=writers, keep_frames=False)
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.thread_time() - cpu
 
 
 def main():
@@ -73,13 +77,15 @@ def main():
     for _ in range(a.repeat):
         for way in ways:
             times[way].append(run(way, a.grains, a.steps, a.every))
-    base = times["none"]
+    base = [wall for wall, _ in times["none"]]
     for way in ways:
+        wall = [w for w, _ in times[way]]
         print(json.dumps({
             "way": way, "grains": a.grains, "steps": a.steps, "every": a.every,
-            "seconds": min(times[way]), "relative": min(base) / min(times[way]),
-            "round_relative_median": statistics.median(
-                b / t for b, t in zip(base, times[way]))}))
+            "seconds": min(wall), "relative": min(base) / min(wall),
+            "round_relative_median": statistics.median(b / t for b, t in zip(base, wall)),
+            "thread_cpu_s": statistics.median(c for _, c in times[way]),
+            "waiting_s": statistics.median(w - c for w, c in times[way])}))
 
 
 if __name__ == "__main__":
