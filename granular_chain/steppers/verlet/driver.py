@@ -295,7 +295,6 @@ class VerletRun:
             self.kernel = specialised(chunk_kernel(self.features),
                                       self._records(self._control(1)), (0,))
         self._scan_codes = ScanCodes(int(feat.law), int(feat.left_wall), int(feat.right_wall))
-        self._fixed_walls = None if feat.driven else model.walls  # (scan: walls_at otherwise)
         self._v2 = np.empty(N)
         x = np.empty(N)
         self._scanner = specialised(scan_frame, (
@@ -347,11 +346,9 @@ class VerletRun:
             t_now); the frame's arrays are written into those the frame log lends.
         """
         x, v, f = self.log.lend(self.model.count)
-        walls = self._fixed_walls
-        if walls is None:
-            walls = walls_at(self.model, self.t_now)
-        return Scan(*self._scanner(self._scan_codes, self.chain, walls, self.u, self.vs, self.f,
-                                   self.model.x0, FrameArrays(x, v, f, self._v2), int(reach)))
+        return Scan(*self._scanner(self._scan_codes, self.chain, walls_at(self.model, self.t_now),
+                                   self.u, self.vs, self.f, self.model.x0,
+                                   FrameArrays(x, v, f, self._v2), int(reach)))
 
     def _added_terms(self):
         """(contact_dissipated, wall_work, body_work) now (forced scenes)."""
