@@ -19,7 +19,9 @@ Result's ``wall_time``, from the first frame to the last), without the time
 spent outside it (``outside_loop_s``: setting the run up, then finishing the
 files). ``round_relative_median`` is the median over the rounds of each round's
 ratio to that round's ``none`` (the ways run in turn, so a drift of the machine's
-speed between rounds cancels out). ``--out`` picks the folder
+speed between rounds cancels out). ``cpu_s`` is the median over the rounds of the
+process's CPU time (user + system, the writers' thread included): what a run
+takes from a machine whose cores are all busy (a sweep). ``--out`` picks the folder
 written to (a RAM disk such as /dev/shm leaves the disk's own speed out).
 
     python benchmarks/streaming_cost.py --grains 10000 --steps 100000 --every 100
@@ -27,6 +29,7 @@ written to (a RAM disk such as /dev/shm leaves the disk's own speed out).
 
 import argparse
 import json
+import resource
 import statistics
 import tempfile
 import time
@@ -59,12 +62,17 @@ def run(way, grains, steps, every, features, folder: Path):
     if way == "all":
         writers.append(EnergyTable(folder))
         thermo = ThermoLog(model, max(1, steps // 20), folder / "thermo.csv")
-    start = time.perf_counter()
+    cpu, start = _cpu(), time.perf_counter()
     r = gc.simulate(s, progress=False, writers=writers, keep_frames=False, thermo=thermo)
     seconds = time.perf_counter() - start
     if thermo is not None:
         thermo.close()
-    return seconds, r.info["frames"], r.wall_time
+    return seconds, r.info["frames"], r.wall_time, _cpu() - cpu
+
+
+def _cpu() -> float:
+    use = resource.getrusage(resource.RUSAGE_SELF)
+    return use.ru_utime + use.ru_stime
 
 
 def main():
@@ -81,13 +89,16 @@ def main():
     best = {w: (float("inf"), 0, float("inf")) for w in ways}
     loop = {w: float("inf") for w in ways}
     rounds = {w: [] for w in ways}  # each round's seconds: the ratio to that round's "none"
+    cpu = {w: [] for w in ways}
     with tempfile.TemporaryDirectory(dir=a.out) as tmp:
         run("none", a.grains, 10, 5, a.features, Path(tmp))  # compile or load the kernel
         for _ in range(a.repeat):
             for w in ways:
                 folder = Path(tmp) / f"{w}"
                 folder.mkdir(exist_ok=True)
-                seconds, frames, stepping = run(w, a.grains, a.steps, a.every, a.features, folder)
+                seconds, frames, stepping, used = run(w, a.grains, a.steps, a.every, a.features,
+                                                      folder)
+                cpu[w].append(used)
                 best[w] = min(best[w], (seconds, frames, stepping))
                 rounds[w].append(seconds)
                 loop[w] = min(loop[w], stepping)
@@ -103,7 +114,8 @@ def main():
                           "loop_relative": loop["none"] / loop[w],
                           "round_relative_median": statistics.median(
                               n / t for n, t in zip(rounds["none"], rounds[w])),
-                          "outside_loop_s": seconds - stepping}))
+                          "outside_loop_s": seconds - stepping,
+                          "cpu_s": statistics.median(cpu[w])}))
 
 
 if __name__ == "__main__":

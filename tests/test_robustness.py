@@ -245,3 +245,20 @@ def test_next_neighbour_overlap_is_warned(stepper):
         assert abs(r.t[q] - 1.18) < 0.015  # step 118 in LAMMPS
     r = gc.simulate(_struck_chain(0.01, stepper), progress=False)
     assert "warnings" not in r.info
+
+
+def test_neighbour_overlap_check_counts_as_numpy_does():
+    """The compiled check behind the warning finds the same first pair and count as
+    x[i+2] - x[i] < r_i + r_(i+2) in numpy, NaN counting as no overlap."""
+    from granular_chain.simulate import _neighbour_overlaps
+
+    rng = np.random.default_rng(3)
+    for n in (3, 4, 50, 1001):
+        radius = rng.uniform(0.2, 0.6, n)
+        reach = radius[:-2] + radius[2:]
+        for spread in (0.3, 1.0, 3.0):
+            x = np.cumsum(rng.uniform(0.0, spread, n))
+            x[rng.integers(n)] = np.nan
+            bad = np.flatnonzero(x[2:] - x[:-2] < reach)
+            expected = (int(bad[0]), bad.size) if bad.size else (-1, 0)
+            assert _neighbour_overlaps(x, reach) == expected
