@@ -152,14 +152,12 @@ class NeighbourWatch:
     frame's positions, about 2 µs for 10^4 granules."""
 
     def __init__(self, radius: np.ndarray):
-        self.reach = np.ascontiguousarray(radius[:-2] + radius[2:], dtype=np.float64)
+        self.reach = _reach(radius)
         self.warning = ""
 
     def write_frame(self, frame: Frame) -> None:
-        if not self.warning and self.reach.size:
-            first, count = _neighbour_overlaps(frame.x, self.reach)
-            if count:
-                self.warning = _overlap_warning(first, count, frame.t)
+        if not self.warning:
+            self.warning = _overlap_warning(frame.x, self.reach, frame.t)
 
     def close(self, result) -> None:
         pass
@@ -188,7 +186,16 @@ def _neighbour_overlaps(x, reach):
     return -1, 0
 
 
-def _overlap_warning(i: int, count: int, t: float) -> str:
+def _reach(radius: np.ndarray) -> np.ndarray:
+    """r_i + r_(i+2), shape (N-2,) (empty below 3 granules)."""
+    return np.ascontiguousarray(radius[:-2] + radius[2:], dtype=np.float64)
+
+
+def _overlap_warning(x: np.ndarray, reach: np.ndarray, t: float) -> str:
+    """The warning for a frame at time ``t`` with positions ``x``, or ''."""
+    i, count = _neighbour_overlaps(np.ascontiguousarray(x, dtype=np.float64), reach)
+    if not count:
+        return ""
     return (f"granules {i} and {i + 2} overlap at t = {t:.6g} (first recorded frame; "
             f"{count} such pairs): the overlaps of contacts {i} and {i + 1} exceed "
             f"granule {i + 1}'s diameter. The model has nearest-neighbour contacts "
@@ -216,13 +223,11 @@ def next_neighbour_overlap(t, x, radius) -> str:
     radius : ndarray, shape (N,)
         Radii.
     """
-    if x.shape[1] < 3 or x.shape[0] == 0:
-        return ""
-    reach = np.ascontiguousarray(radius[:-2] + radius[2:], dtype=np.float64)
+    reach = _reach(radius)
     for q in range(x.shape[0]):  # frame by frame: stops at the first
-        first, count = _neighbour_overlaps(np.ascontiguousarray(x[q], dtype=np.float64), reach)
-        if count:
-            return _overlap_warning(first, count, t[q])
+        warning = _overlap_warning(x[q], reach, t[q])
+        if warning:
+            return warning
     return ""
 
 
