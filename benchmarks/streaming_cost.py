@@ -19,7 +19,8 @@ Result's ``wall_time``, from the first frame to the last), without the time
 spent outside it (``outside_loop_s``: setting the run up, then finishing the
 files). ``round_relative_median`` is the median over the rounds of each round's
 ratio to that round's ``none`` (the ways run in turn, so a drift of the machine's
-speed between rounds cancels out). ``cpu_s`` is the median over the rounds of the
+speed between rounds cancels out); ``writing_relative`` the same median against
+``frames``: what the writers cost beyond making the frames. ``cpu_s`` is the median over the rounds of the
 process's CPU time (user + system, the writers' thread included): what a run
 takes from a machine whose cores are all busy (a sweep). ``--out`` picks the folder
 written to (a RAM disk such as /dev/shm leaves the disk's own speed out).
@@ -114,6 +115,8 @@ def main():
                           "loop_relative": loop["none"] / loop[w],
                           "round_relative_median": statistics.median(
                               n / t for n, t in zip(rounds["none"], rounds[w])),
+                          "writing_relative": statistics.median(
+                              n / t for n, t in zip(rounds["frames"], rounds[w])),
                           "outside_loop_s": seconds - stepping,
                           "cpu_s": statistics.median(cpu[w])}))
 
