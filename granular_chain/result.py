@@ -44,11 +44,17 @@ class Event:
         One of ``contact_close``, ``contact_open``, ``stop``, ``slip``.
     index : int
         Contact index (contacts: -1 left wall, N-1 right wall) or granule index.
+    step : int
+        Verlet: the step at whose end the event was seen (``t`` is that step's end,
+        ``step * dt`` or t_end for a shortened last step; a stop or slip of the half
+        kick that synchronises the velocities at a frame carries the frame's step).
+        -1 for the event stepper, which takes no steps: its times are exact.
     """
 
     t: float
     kind: str
     index: int
+    step: int = -1
 
 
 @dataclass
@@ -289,16 +295,18 @@ class Result:
         return to_xarray(self, self.scene)
 
     def events_frame(self):
-        """The event log as a ``pandas.DataFrame`` with columns t, kind, index (one row
-        per event; empty for a Verlet run without ``output.events``).
+        """The event log as a ``pandas.DataFrame`` with columns step, t, kind, index (one
+        row per event, as events.csv; empty for a Verlet run without ``output.events``).
 
         Returns
         -------
         pandas.DataFrame
-            One row per event: t (scene units of time), kind (str), index (int).
+            One row per event: step (int, -1 for the event stepper), t (scene units of
+            time), kind (str), index (int).
         """
         pd = _need("pandas", "analysis", "Result.events_frame")
-        return pd.DataFrame({"t": np.array([e.t for e in self.events], dtype=np.float64),
+        return pd.DataFrame({"step": np.array([e.step for e in self.events], dtype=np.int64),
+                             "t": np.array([e.t for e in self.events], dtype=np.float64),
                              "kind": pd.Series([e.kind for e in self.events], dtype=object),
                              "index": np.array([e.index for e in self.events], dtype=np.int64)})
 

@@ -422,7 +422,8 @@ class Output(_Strict):
         "logged events, events.csv.")
     events: Bool = Field(
         False, description="Verlet: log every contact opening/closing and stick/slip change "
-        "with step and time into events.csv (the event stepper always logs).")
+        "with step and time (trajectory.h5's event variables; events.csv with output.csv); "
+        "the event stepper always logs.")
     plots: Bool = Field(
         False, description="Write PNG plots into plots/ (space-time velocity diagram, energy "
         "ledger, granule velocities, a rendered frame).")

@@ -15,7 +15,7 @@ from granular_chain.writers.summary import write_summary
 from granular_chain.writers.trajectory import TrajectoryWriter, write_trajectory
 
 ROOT = Path(__file__).resolve().parents[1]
-EVENTS = [Event(0.25, "contact_close", 0), Event(0.5, "slip", 1), Event(1.75, "stop", 1)]
+EVENTS = [Event(0.25, "contact_close", 0, 25), Event(0.5, "slip", 1, 50), Event(1.75, "stop", 1)]
 
 
 @pytest.fixture(scope="module")
@@ -209,7 +209,9 @@ def test_files_of_the_earlier_layout_still_read(run, tmp_path):
         h5["events/index"] = [e.index for e in EVENTS]
         h5.attrs.update(status="separated", message=result.message, stepper="verlet",
                         dt=result.dt, scene=json.dumps(scene.model_dump(mode="json")))
-    _assert_same(gc.read_run(tmp_path), result)
+    # (that layout kept no step with an event: they read back as -1)
+    _assert_same(gc.read_run(tmp_path), dataclasses.replace(
+        result, events=[dataclasses.replace(e, step=-1) for e in EVENTS]))
 
 
 def test_status_prints_as_its_name_and_stays_an_int():
@@ -241,7 +243,8 @@ def test_events_and_ledger_as_dataframes(run):
     pytest.importorskip("pandas")
     scene, result = run
     ev = result.events_frame()
-    assert list(ev.columns) == ["t", "kind", "index"] and len(ev) == len(EVENTS)
+    assert list(ev.columns) == ["step", "t", "kind", "index"] and len(ev) == len(EVENTS)
+    assert ev["step"].tolist() == [e.step for e in EVENTS]
     assert ev["t"].tolist() == [e.t for e in EVENTS] and ev["kind"].tolist() == [
         e.kind for e in EVENTS] and ev["index"].tolist() == [e.index for e in EVENTS]
     led = result.ledger_frame()

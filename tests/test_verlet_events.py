@@ -171,5 +171,19 @@ def test_events_csv_from_the_log(tmp_path):
     path = write_events_csv(r, tmp_path)
     rows = list(csv.DictReader(path.open()))
     assert len(rows) == len(r.events) > 0
-    assert [(float(q["t"]), q["kind"], int(q["index"])) for q in rows] == \
-        [(e.t, e.kind, e.index) for e in r.events]
+    assert list(rows[0]) == ["step", "t", "kind", "index"]
+    assert [(int(q["step"]), float(q["t"]), q["kind"], int(q["index"])) for q in rows] == \
+        [(e.step, e.t, e.kind, e.index) for e in r.events]
+
+
+def test_event_steps_give_their_times():
+    """An event's step is the step whose end is its time (t = step dt), including
+    the stops and slips of the half kicks at the frames (logged with the frame's step)."""
+    N = 20
+    r = _run(_scene("coulomb", True, N=N, steps=800, every=400))
+    kinds = {e.kind for e in r.events}
+    assert {"contact_close", "stop", "slip"} <= kinds, kinds
+    steps = np.array([e.step for e in r.events])
+    assert steps.min() >= 1 and steps.max() <= r.steps
+    assert np.all(np.diff(steps) >= 0)  # in the order they happened
+    assert [e.t for e in r.events] == [s * r.dt for s in steps.tolist()]

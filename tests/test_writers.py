@@ -181,13 +181,13 @@ def test_events_csv_when_events_are_logged(run, tmp_path):
     from granular_chain.writers.tables import write_events_csv
 
     _, result = run
-    events = [Event(0.125, "contact_close", 0), Event(1.0 / 3.0, "stop", 7),
+    events = [Event(0.125, "contact_close", 0, 5), Event(1.0 / 3.0, "stop", 7, 13),
               Event(2.5, "contact_open", -1)]
     path = write_events_csv(dataclasses.replace(result, events=events), tmp_path)
     rows = path.read_text().splitlines()
-    assert rows[0] == "t,kind,index"
-    back = [(float(t), k, int(i)) for t, k, i in (r.split(",") for r in rows[1:])]
-    assert back == [(e.t, e.kind, e.index) for e in events]
+    assert rows[0] == "step,t,kind,index"
+    back = [Event(float(t), k, int(i), int(s)) for s, t, k, i in (r.split(",") for r in rows[1:])]
+    assert back == events and back[-1].step == -1
     assert write_events_csv(result, tmp_path / "none") is None
 
 
@@ -195,7 +195,7 @@ def test_trajectory_round_trip_with_events(run, tmp_path):
     from granular_chain.writers.trajectory import read_trajectory, write_trajectory
 
     scene, result = run
-    events = [Event(0.5, "slip", 3)]
+    events = [Event(0.5, "slip", 3, 42)]
     write_trajectory(dataclasses.replace(result, events=events), tmp_path, scene)
     back, scene_back = read_trajectory(tmp_path)
     for name in ("t", "x", "v", "f"):

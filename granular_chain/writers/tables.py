@@ -16,9 +16,10 @@ digits, so reading them back gives the same doubles.
 ``events.csv`` (only when the stepper logged events: the event stepper, or Verlet with
 ``output.events``)::
 
-    t,kind,index
+    step,t,kind,index
 
-``kind`` is ``contact_close``, ``contact_open``, ``stop`` or ``slip``; ``index`` is the
+``step`` is the Verlet step at whose end the event was seen (``t`` its end time; -1
+with the event stepper, whose event times are exact); ``kind`` is ``contact_close``, ``contact_open``, ``stop`` or ``slip``; ``index`` is the
 contact (-1 left wall, N-1 right wall) or the granule.
 
 Read with ``numpy.genfromtxt(path, delimiter=",", names=True)`` or ``pandas.read_csv``.
@@ -150,9 +151,9 @@ def write_events_csv(result, folder) -> Optional[Path]:
     path = Path(folder) / "events.csv"
     with path.open("w", newline="") as fh:
         out = csv.writer(fh)
-        out.writerow(("t", "kind", "index"))
+        out.writerow(("step", "t", "kind", "index"))
         for ev in result.events:
-            out.writerow((repr(float(ev.t)), ev.kind, int(ev.index)))
+            out.writerow((int(ev.step), repr(float(ev.t)), ev.kind, int(ev.index)))
     return path
 
 

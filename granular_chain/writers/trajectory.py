@@ -21,7 +21,8 @@ dimensionless unit ``"1"``, physical ones SI):
     The energy ledger (the columns of energy.csv).
 ``mass``, ``radius``, ``friction_kinetic``, ``friction_static``, ``friction_viscous`` (granule)
     The per-granule values the run used (drawn values, for scenes with distributions).
-``x_final``, ``v_final`` (granule); ``event_time``, ``event_kind``, ``event_index`` (event)
+``x_final``, ``v_final`` (granule); ``event_time``, ``event_kind``, ``event_index``,
+``event_step`` (event)
     The final state and the event log (written when the run is closed).
 
 Global attributes: ``Conventions``, ``title``, ``source``, ``engine_version``,
@@ -91,6 +92,9 @@ _GRANULE_FIELDS = {
     "friction_static": ("eta_static", "force", "static friction threshold"),
     "friction_viscous": ("gamma", "damping", "hydrodynamic friction coefficient"),
 }
+
+
+_EVENT_STEP = "Verlet step at whose end the event was seen (-1: event stepper)"
 
 
 @numba.njit(nogil=True, cache=True)
@@ -285,7 +289,7 @@ class TrajectoryWriter:
             raise ValueError(f"{self.path} holds {h5['time'].shape[0]} frames, fewer than the "
                              f"checkpoint's {frames}")
         for name in ("balance", "x_final", "v_final", "event_time", "event_kind", "event_index",
-                     "event"):
+                     "event_step", "event"):
             if name in h5:
                 del h5[name]
         for name in ("status", "status_code", "success", "message", "steps", "wall_time_s",
@@ -420,6 +424,8 @@ class TrajectoryWriter:
                   "contact_close, contact_open, stop or slip", dtype=h5py.string_dtype())
         self._put("event_index", [e.index for e in events], ("event",), "",
                   "contact (-1 left wall, N-1 right wall) or granule index", dtype="i8")
+        self._put("event_step", [e.step for e in events], ("event",), "",
+                  _EVENT_STEP, dtype="i8")
 
     def __enter__(self) -> "TrajectoryWriter":
         return self
@@ -563,8 +569,9 @@ def read_h5(path, summary: Optional[dict] = None):
             cols = (ev["t"][...], ev["kind"][...], ev["index"][...]) if ev else ((), (), ())
         else:
             cols = (h5["event_time"][...], h5["event_kind"].asstr()[...], h5["event_index"][...])
-        events = [Event(float(s), k.decode() if isinstance(k, bytes) else str(k), int(i))
-                  for s, k, i in zip(*cols)]
+        steps = h5["event_step"][...] if "event_step" in h5 else np.full(len(cols[0]), -1)
+        events = [Event(float(s), k.decode() if isinstance(k, bytes) else str(k), int(i), int(n))
+                  for s, k, i, n in zip(*cols, steps)]
         fin = {**summary, "info": summary_info(summary)} if legacy else {
             "x_final": h5["x_final"][...], "v_final": h5["v_final"][...],
             "t_final": a["t_final"], "steps": a["steps"], "wall_time_s": a["wall_time_s"],
@@ -649,4 +656,6 @@ def to_xarray(result, scene=None):
     data["event_index"] = ("event", np.array([e.index for e in ev], dtype=np.int64),
                            _attrs(units, "", "contact (-1 left wall, N-1 right wall) or "
                                   "granule index"))
+    data["event_step"] = ("event", np.array([e.step for e in ev], dtype=np.int64),
+                          _attrs(units, "", _EVENT_STEP))
     return xr.Dataset(data, coords=coords, attrs={**root_attrs(scene), **final_attrs(result)})

@@ -522,6 +522,7 @@ class VerletRun:
             state["events_kind"] = np.array([EVENT_KINDS.index(e.kind) for e in events],
                                             dtype=np.int8)
             state["events_index"] = np.array([e.index for e in events], dtype=np.int64)
+            state["events_step"] = np.array([e.step for e in events], dtype=np.int64)
         return state
 
     def _restore(self, state: dict) -> None:
@@ -542,10 +543,12 @@ class VerletRun:
         self.log.resume(int(state["frames"]), float(state["max_error"]), first)
         if self.event_log is not None:
             from ...result import Event
+            times = state["events_t"].tolist()
+            steps = state["events_step"].tolist() if "events_step" in state else \
+                [-1] * len(times)  # (a checkpoint written without the events' steps)
             self.event_log.events = [
-                Event(t, EVENT_KINDS[k], i) for t, k, i in zip(
-                    state["events_t"].tolist(), state["events_kind"].tolist(),
-                    state["events_index"].tolist())]
+                Event(t, EVENT_KINDS[k], i, s) for t, k, i, s in zip(
+                    times, state["events_kind"].tolist(), state["events_index"].tolist(), steps)]
 
     def _finished(self) -> bool:
         """Every step is taken (the run ends here whatever else happens)."""
@@ -593,7 +596,8 @@ class VerletRun:
 
     def _begin_short_step(self) -> None:
         if self.event_log is not None and self.merged:  # the half kick ending the last whole step
-            self.event_log.half_kick(self.v, self.f, self.model, 0.5 * self.plan.dt, self.t_now)
+            self.event_log.half_kick(self.v, self.f, self.model, 0.5 * self.plan.dt, self.t_now,
+                                    self.steps)
             self.event_log.commit()
         self.short_taken, self.dt_now = True, self.last_dt
         if self.merged:  # complete the pending half kick; the new step opens the leapfrog again
@@ -613,7 +617,8 @@ class VerletRun:
             self.sync = synchronise(self.v, self.f, m.eta, m.eta_static, m.inv_mass,
                                            0.5 * self.dt_now, self.vs)
             if self.event_log is not None:  # held: only the run's last one is counted
-                self.event_log.half_kick(self.v, self.f, m, 0.5 * self.dt_now, self.t_now)
+                self.event_log.half_kick(self.v, self.f, m, 0.5 * self.dt_now, self.t_now,
+                                        self.steps)
             if self.stop_mode & STOP_ON_REST and code == Pause.CHUNK_DONE \
                     and not self.vs.any():
                 # at rest here (the kernel reads rest off the kick after the time

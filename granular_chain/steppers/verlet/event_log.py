@@ -208,11 +208,12 @@ class EventLog:
         q = int(self.buffers.fill[0])
         s = np.minimum(self.buffers.step[:q], taken) + done
         t = np.where(s <= self.steps, s * self.dt, self.t_end)
-        self.events.extend(Event(ti, EVENT_KINDS[k], i) for ti, k, i in zip(
-            t.tolist(), self.buffers.kind[:q].tolist(), self.buffers.index[:q].tolist()))
+        self.events.extend(Event(ti, EVENT_KINDS[k], i, si) for ti, k, i, si in zip(
+            t.tolist(), self.buffers.kind[:q].tolist(), self.buffers.index[:q].tolist(),
+            s.tolist()))
         self.buffers.fill[0] = 0
 
-    def half_kick(self, v, f, model, h: float, t: float) -> None:
+    def half_kick(self, v, f, model, h: float, t: float, step: int) -> None:
         """Hold the stop and slip events of the half kick :func:`.kernel.synchronise`
         takes at time t (v, f and h as given to it); :meth:`commit` adds them.
 
@@ -227,9 +228,11 @@ class EventLog:
             Kick duration, units of time of the model.
         t : float
             Time the events are logged at, units of time of the model.
+        step : int
+            The step they are logged with (the run's steps so far).
         """
         kick_codes(v, f, model.eta, model.eta_static, model.inv_mass, h, self._codes)
-        self._pending = [(t, str(kind), int(i)) for bit, kind in
+        self._pending = [(t, str(kind), int(i), int(step)) for bit, kind in
                          ((1, EventKind.STOP), (2, EventKind.SLIP))
                          for i in np.flatnonzero(self._codes & bit)]
 
@@ -243,7 +246,6 @@ class EventLog:
         """
         from ...result import Event
 
-        self.events.extend(Event(t, kind, i) for t, kind, i in sorted(
-            self._pending, key=lambda e: e[2]))
+        self.events.extend(Event(*e) for e in sorted(self._pending, key=lambda e: e[2]))
         self._pending = []
         return self.events
