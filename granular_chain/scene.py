@@ -412,7 +412,9 @@ class Output(_Strict):
     every: Optional[Annotated[int, Int]] = Field(
         None, ge=1, description="Record a frame every this many steps (Verlet).")
     dt: Optional[Positive] = Field(
-        None, description="Record a frame every dt of simulated time (rounded to whole steps).")
+        None, description="Record a frame every dt of simulated time, on its multiples, and "
+        "one at t_end (Verlet shortens run.dt, when needed, to the largest step that divides "
+        "it; the event stepper also records one at each batch of events for N <= 64).")
     trajectory: Bool = Field(True, description="Write trajectory.h5 (t, x, v, energy ledger).")
     vtk: Bool = Field(
         False, description="Write a VTK time series for ParaView/pyvista: run.pvd indexing "

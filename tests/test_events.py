@@ -218,3 +218,23 @@ def test_mixed_friction_matches_exact_reference(eta, g):
             assert got == 0.0
         else:
             assert abs(mp.mpf(got) / want - 1) <= 1e-14
+
+
+def test_frame_times_increase_strictly():
+    """Frames at events (N <= 64) and on the output.dt cadence: a second batch of events
+    at one instant, and t_end on the cadence, record no second frame at that time (so
+    xarray selects a frame by its time)."""
+    scene = scene_from_dict({
+        "name": "walls", "granules": {"count": 40, "radius": 10.0, "velocity": {0: 1.0},
+                                      "friction": {"kinetic": 1e-5}},
+        "contacts": {"exponent": 2.5}, "walls": {"left": {}, "right": {}},
+        "run": {"stepper": "event", "t_end": 20.0}, "output": {"dt": 1.0}})
+    r = simulate(scene, progress=False)
+    assert r.status == Status.T_END and r.event_counts["stop"] > 0
+    assert np.all(np.diff(r.t) > 0) and r.t[-1] == 20.0
+    cadence = np.arange(21.0)
+    assert np.all(np.isin(cadence, r.t)) and r.t.size > cadence.size  # frames at events too
+    xr = pytest.importorskip("xarray")
+    ds = r.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    assert ds.v.sel(time=7.5, method="nearest").shape == (40,)

@@ -253,3 +253,23 @@ def test_output_dt_is_honoured_exactly():
     assert np.allclose(run.t, np.arange(11) * 0.1, rtol=0, atol=1e-14)
     assert run.dt == pytest.approx(0.1 / 11) and run.t_final == pytest.approx(1.0, rel=1e-15)
     assert any("run.dt shortened" in w for w in run.info["warnings"])
+
+
+@pytest.mark.parametrize("viscous", [False, True])
+def test_no_frame_off_the_cadence_before_a_shortened_last_step(viscous):
+    """t_end = 1.055 with dt = 0.01: frames at the multiples of output.dt = 0.1, then
+    one at t_end after the shortened last step, none at 1.05 (its last whole step);
+    the state at t_end is the one of the run with a frame at every step."""
+    def run(every):
+        scene = _chain(10, viscous, "t_end", 1, t_end=1.055)
+        scene.run.dt = 0.01
+        scene.output.every = every
+        return gc.simulate(scene, progress=False)
+
+    sparse, dense = run(10), run(1)
+    assert np.allclose(sparse.t, [*(np.arange(11) * 0.1), 1.055], rtol=0, atol=1e-14)
+    assert sparse.t[-1] == 1.055 and dense.t[-2] == pytest.approx(1.05, abs=1e-14)
+    assert np.array_equal(sparse.x_final, dense.x_final)
+    assert np.array_equal(sparse.v_final, dense.v_final)
+    assert sparse.event_counts == dense.event_counts
+    assert sparse.energy.coulomb[-1] == dense.energy.coulomb[-1]

@@ -377,7 +377,7 @@ class VerletRun:
             self.log.record(first)
             if self.thermo is not None:
                 self.thermo.write_frame(first)
-            self.next_frame = min(self.plan.every, self.n_total)
+            self.next_frame = min(self.plan.every, self._last_step())
             self.next_thermo = self.thermo.every if self.thermo is not None else math.inf
         else:
             # the frames before the checkpoint are in the writers' files, not here: the
@@ -424,7 +424,7 @@ class VerletRun:
             # A compiled call runs to the next frame, thermo line or checkpoint, or for
             # about CHUNK_SECONDS, whichever is first.
             target = min(self.next_frame, self.next_thermo, self.next_ck,
-                         self.steps + chunk.steps)
+                         self.steps + chunk.steps, self.n_total)
             code = self._advance(chunk, int(target) - self.steps)
             if rest_watch:
                 code = self._synchronise(code)
@@ -471,7 +471,7 @@ class VerletRun:
             self.log.record(frame)
             return self._interrupted(stop)
         self.log.record(frame)
-        self.next_frame = min(self.steps + self.plan.every, self.n_total)
+        self.next_frame = min(self.steps + self.plan.every, self._last_step())
         if finished and ended is None and self.thermo is not None \
                 and self.thermo.last_step != self.steps:
             self.thermo.write_frame(frame)  # the thermo log ends at the run's end
@@ -549,6 +549,11 @@ class VerletRun:
             self.event_log.events = [
                 Event(t, EVENT_KINDS[k], i, s) for t, k, i, s in zip(
                     times, state["events_kind"].tolist(), state["events_index"].tolist(), steps)]
+
+    def _last_step(self) -> int:
+        """The run's last step: the shortened step after the whole ones when it is
+        still to come (the run's last frame is there, not before it)."""
+        return self.n_total + (1 if self.last_dt and not self.short_taken else 0)
 
     def _finished(self) -> bool:
         """Every step is taken (the run ends here whatever else happens)."""
