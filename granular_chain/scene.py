@@ -430,9 +430,9 @@ class Output(_Strict):
         False, description="Write PNG plots into plots/ (space-time velocity diagram, energy "
         "ledger, granule velocities, a rendered frame).")
     checkpoint_every: Optional[Annotated[int, Int]] = Field(
-        None, ge=1, description="Steps between checkpoints (Verlet): granular-chain run "
-        "--restart RUN_DIR continues the run from the latest, bit for bit. A run also "
-        "checkpoints when it is interrupted.")
+        None, ge=1, description="Steps between checkpoints (Verlet steps; Taylor steps with "
+        "the event stepper): granular-chain run --restart RUN_DIR continues the run from the "
+        "latest, bit for bit. A run also checkpoints when it is interrupted.")
     thermo: Optional[int] = Field(
         None, ge=1, description="Steps between thermo lines (t, energies, dissipated energy, "
         "ledger error, closed contacts, sliding granules) printed by granular-chain run and "
@@ -1201,4 +1201,20 @@ def scene_json_schema() -> dict:
     dict
         The schema (JSON-ready), with each field's description and units.
     """
-    return Scene.model_json_schema()
+    return _json_schema_bounds(Scene.model_json_schema())
+
+
+# Bounds pydantic leaves under its own names in the schemas of annotated types.
+_BOUNDS = {"ge": "minimum", "gt": "exclusiveMinimum", "le": "maximum", "lt": "exclusiveMaximum"}
+
+
+def _json_schema_bounds(node):
+    """``node`` with pydantic's ge/gt/le/lt named as JSON Schema's bounds, so that
+    other validators see them (in schema objects only: those with a ``type``)."""
+    if isinstance(node, list):
+        return [_json_schema_bounds(item) for item in node]
+    if not isinstance(node, dict):
+        return node
+    typed = "type" in node
+    return {(_BOUNDS.get(key, key) if typed else key): _json_schema_bounds(value)
+            for key, value in node.items()}

@@ -96,6 +96,11 @@ def test_validate_and_schema(capsys):
     assert main(["schema"]) == 0
     schema = json.loads(capsys.readouterr().out)
     assert "granules" in schema["properties"]
+    # bounds under JSON Schema's names, which other validators read
+    text = json.dumps(schema)
+    assert not any(f'"{key}":' in text for key in ("ge", "gt", "le", "lt"))
+    count = schema["$defs"]["Granules"]["properties"]["count"]
+    assert "minimum" in json.dumps(count) or "exclusiveMinimum" in json.dumps(count)
 
 
 def test_console_script_exit_status(tmp_path):

@@ -40,7 +40,9 @@ def build_parser() -> argparse.ArgumentParser:
     from .. import __version__
     from . import __doc__ as description
 
-    parser = _Parser(prog="granular-chain", description=description.splitlines()[0])
+    # (the docstring's first paragraph: what the command is and its subcommands)
+    parser = _Parser(prog="granular-chain", description=" ".join(
+        description.split("\n\n")[0].replace("``", "").split()))
     parser.add_argument("--version", action="version", version=f"granular-chain {__version__}")
     subparsers = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
