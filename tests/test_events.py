@@ -225,9 +225,9 @@ def test_frame_times_increase_strictly():
     at one instant, and t_end on the cadence, record no second frame at that time (so
     xarray selects a frame by its time)."""
     scene = scene_from_dict({
-        "name": "walls", "granules": {"count": 40, "radius": 10.0, "velocity": {0: 1.0},
+        "name": "stops", "granules": {"count": 40, "radius": 10.0, "velocity": {0: 1.0},
                                       "friction": {"kinetic": 1e-5}},
-        "contacts": {"exponent": 2.5}, "walls": {"left": {}, "right": {}},
+        "contacts": {"exponent": 2.5},
         "run": {"stepper": "event", "t_end": 20.0}, "output": {"dt": 1.0}})
     r = simulate(scene, progress=False)
     assert r.status == Status.T_END and r.event_counts["stop"] > 0

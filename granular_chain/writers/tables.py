@@ -19,8 +19,9 @@ digits, so reading them back gives the same doubles.
     step,t,kind,index
 
 ``step`` is the Verlet step at whose end the event was seen (``t`` its end time; -1
-with the event stepper, whose event times are exact); ``kind`` is ``contact_close``, ``contact_open``, ``stop`` or ``slip``; ``index`` is the
-contact (-1 left wall, N-1 right wall) or the granule.
+with the event stepper, whose event times are exact); ``kind`` is ``contact_close``,
+``contact_open``, ``stop`` or ``slip``; ``index`` is the contact (-1 left wall, N-1
+right wall) or the granule.
 
 Read with ``numpy.genfromtxt(path, delimiter=",", names=True)`` or ``pandas.read_csv``.
 """

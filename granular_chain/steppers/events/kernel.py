@@ -182,8 +182,7 @@ def _before_pass(law, settings, clock, model, state, frames, log):
     """Before a pass of the main loop: t_end reached, the step limit, room in the buffers."""
     t = clock.time
     if t >= settings.t_end:
-        if frames.t[clock.n_frames - 1] != t:
-            record_frame(law, t, clock, model, state, frames, 0.0, 0.0)
+        record_frame(law, t, clock, model, state, frames, 0.0, 0.0)  # (none if one is at t)
         return Status.T_END.value
     if clock.steps >= settings.max_steps:
         return Status.MAX_STEPS.value
