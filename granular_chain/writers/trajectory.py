@@ -94,7 +94,22 @@ _GRANULE_FIELDS = {
 }
 
 
-_EVENT_STEP = "Verlet step at whose end the event was seen (-1: event stepper)"
+# The event log's variables (dimension ``event``): name -> (Event attribute, numpy
+# dtype, kind of unit, long name); written by the writer and by to_xarray alike.
+_EVENT_FIELDS = {
+    "event_time": ("t", np.float64, "time", "time of the event"),
+    "event_kind": ("kind", object, "", "contact_close, contact_open, stop or slip"),
+    "event_index": ("index", np.int64, "",
+                    "contact (-1 left wall, N-1 right wall) or granule index"),
+    "event_step": ("step", np.int64, "",
+                   "Verlet step at whose end the event was seen (-1: event stepper)"),
+}
+
+
+def _event_columns(events) -> dict:
+    """name -> (values, kind, long name) of the event variables, one value an event."""
+    return {name: (np.array([getattr(e, attr) for e in events], dtype=dtype), kind, text)
+            for name, (attr, dtype, kind, text) in _EVENT_FIELDS.items()}
 
 
 @numba.njit(nogil=True, cache=True)
@@ -288,8 +303,7 @@ class TrajectoryWriter:
         if h5["time"].shape[0] < frames:
             raise ValueError(f"{self.path} holds {h5['time'].shape[0]} frames, fewer than the "
                              f"checkpoint's {frames}")
-        for name in ("balance", "x_final", "v_final", "event_time", "event_kind", "event_index",
-                     "event_step", "event"):
+        for name in ("balance", "x_final", "v_final", *_EVENT_FIELDS, "event"):
             if name in h5:
                 del h5[name]
         for name in ("status", "status_code", "success", "message", "steps", "wall_time_s",
@@ -419,13 +433,9 @@ class TrajectoryWriter:
         ev = self._h5.create_dataset("event", data=np.arange(len(events), dtype=np.int64))
         ev.attrs.update(_attrs(self._units, "", "event number"))
         ev.make_scale("event")
-        self._put("event_time", [e.t for e in events], ("event",), "time", "time of the event")
-        self._put("event_kind", [e.kind for e in events], ("event",), "",
-                  "contact_close, contact_open, stop or slip", dtype=h5py.string_dtype())
-        self._put("event_index", [e.index for e in events], ("event",), "",
-                  "contact (-1 left wall, N-1 right wall) or granule index", dtype="i8")
-        self._put("event_step", [e.step for e in events], ("event",), "",
-                  _EVENT_STEP, dtype="i8")
+        for name, (values, kind, text) in _event_columns(events).items():
+            dtype = h5py.string_dtype() if values.dtype == object else values.dtype
+            self._put(name, values, ("event",), kind, text, dtype=dtype)
 
     def __enter__(self) -> "TrajectoryWriter":
         return self
@@ -648,14 +658,6 @@ def to_xarray(result, scene=None):
     data["x_final"] = ("granule", result.x_final, _attrs(units, "length", "final granule position"))
     data["v_final"] = ("granule", result.v_final,
                        _attrs(units, "velocity", "final granule velocity"))
-    ev = result.events
-    data["event_time"] = ("event", np.array([e.t for e in ev], dtype=np.float64),
-                          _attrs(units, "time", "time of the event"))
-    data["event_kind"] = ("event", np.array([e.kind for e in ev], dtype=object),
-                          _attrs(units, "", "contact_close, contact_open, stop or slip"))
-    data["event_index"] = ("event", np.array([e.index for e in ev], dtype=np.int64),
-                           _attrs(units, "", "contact (-1 left wall, N-1 right wall) or "
-                                  "granule index"))
-    data["event_step"] = ("event", np.array([e.step for e in ev], dtype=np.int64),
-                          _attrs(units, "", _EVENT_STEP))
+    for name, (values, kind, text) in _event_columns(result.events).items():
+        data[name] = ("event", values, _attrs(units, kind, text))
     return xr.Dataset(data, coords=coords, attrs={**root_attrs(scene), **final_attrs(result)})

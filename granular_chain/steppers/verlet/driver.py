@@ -419,8 +419,7 @@ class VerletRun:
         chunk_done = int(Pause.CHUNK_DONE)  # (a plain int: compared after every call)
         while self.steps < self.n_total or (self.last_dt and not self.short_taken):
             if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
-                self._begin_short_step()
-                self.next_frame = self.n_total
+                self._begin_short_step()  # (next_frame is already its end: _last_step)
             # A compiled call runs to the next frame, thermo line or checkpoint, or for
             # about CHUNK_SECONDS, whichever is first.
             target = min(self.next_frame, self.next_thermo, self.next_ck,
