@@ -99,6 +99,21 @@ def test_cli_run_writes_thermo_and_prints_it(tmp_path, monkeypatch, capsys):
     rows = list(csv.DictReader((tmp_path / "r" / "thermo.csv").open()))
     assert len(rows) == len(printed[1:1 + len(rows)]) and int(rows[1]["step"]) == 100
     assert (tmp_path / "r" / "energy.csv").exists()
+    assert max(len(line) for line in printed[:1 + len(rows)]) <= 79
+
+
+def test_thermo_lines_fit_an_80_column_terminal(capsys):
+    """The widest values a line can hold (a step count near run.max_steps, energies
+    with 5 digits and an exponent) keep the printed line within 79 characters, each
+    value apart from the next."""
+    from granular_chain.writers.thermo import _Echo
+
+    echo = _Echo()
+    echo.line((1_999_999_999, 123456.78, 1.2345678e-05, 9.8765432e+10, 1.2345678e-300,
+               1.5e-09, 9_999_999, 9_999_999))
+    header, line = capsys.readouterr().out.splitlines()
+    assert len(header) <= 79 and len(line) <= 79
+    assert len(line.split()) == 8
 
 
 MEMORY_CHILD = """

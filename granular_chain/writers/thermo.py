@@ -148,9 +148,13 @@ class ThermoLog:
 
 
 class _Echo:
-    """Thermo lines on standard output: a rich table row on a terminal, else plain."""
+    """Thermo lines on standard output: a rich table row on a terminal, else plain.
 
-    _WIDTHS = (10, 12, 12, 12, 12, 10, 8, 8)
+    A line is 79 characters: it fits an 80-column terminal without wrapping (the
+    time and the energies in 10 characters each, see :func:`_g`).
+    """
+
+    _WIDTHS = (10, 11, 11, 11, 11, 9, 8, 8)
 
     def __init__(self):
         self._rich = None
@@ -167,9 +171,16 @@ class _Echo:
 
     def line(self, row) -> None:
         step, t, ke, pe, diss, err, closed, sliding = row
-        text = (f"{step:>10d}{t:>12.5g}{ke:>12.5g}{pe:>12.5g}{diss:>12.5g}{err:>10.2e}"
+        text = (f"{step:>10d}{_g(t):>11}{_g(ke):>11}{_g(pe):>11}{_g(diss):>11}{err:>9.2e}"
                 f"{closed:>8d}{sliding:>8d}")
         if self._rich is not None:
             self._rich.print(text)
         else:
             print(text, flush=True)
+
+
+def _g(value: float) -> str:
+    """``value`` (never negative) in 10 characters at most: 5 significant digits,
+    4 when its exponent has three digits (below 1e-99 or from 1e100)."""
+    text = f"{value:.5g}"
+    return text if len(text) <= 10 else f"{value:.4g}"
