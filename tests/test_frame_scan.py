@@ -1,4 +1,4 @@
-"""The Verlet driver's one-pass frame scan agrees with the numpy it replaces, bit for
+"""The Verlet driver's compiled frame scan agrees with the numpy it replaces, bit for
 bit, and the frame log's reused arrays reach every writer intact."""
 
 import time

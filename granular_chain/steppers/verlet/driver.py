@@ -330,7 +330,7 @@ class VerletRun:
                      self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
 
     def scan(self, reach: bool = True) -> Scan:
-        """Read the state off in one compiled pass (:func:`.frame_scan.scan_frame`).
+        """Read the state off in one compiled call (:func:`.frame_scan.scan_frame`).
 
         Parameters
         ----------
