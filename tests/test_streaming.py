@@ -111,9 +111,10 @@ def test_thermo_lines_fit_an_80_column_terminal(capsys):
     echo = _Echo()
     echo.line((1_999_999_999, 123456.78, 1.2345678e-05, 9.8765432e+10, 1.2345678e-300,
                1.5e-09, 9_999_999, 9_999_999))
-    header, line = capsys.readouterr().out.splitlines()
-    assert len(header) <= 79 and len(line) <= 79
-    assert len(line.split()) == 8
+    echo.line((0, 0.0, -1.2345678e-05, 0.5, -1.2345678e-300, 0.0, 0, 0))  # roundoff below 0
+    header, *lines = capsys.readouterr().out.splitlines()
+    assert len(header) <= 79 and all(len(line) <= 79 for line in lines)
+    assert all(len(line.split()) == 8 for line in lines)
 
 
 MEMORY_CHILD = """

@@ -151,7 +151,7 @@ class _Echo:
     """Thermo lines on standard output: a rich table row on a terminal, else plain.
 
     A line is 79 characters: it fits an 80-column terminal without wrapping (the
-    time and the energies in 10 characters each, see :func:`_g`).
+    time and the energies in 10 characters at most, see :func:`_g`).
     """
 
     _WIDTHS = (10, 11, 11, 11, 11, 9, 8, 8)
@@ -180,7 +180,10 @@ class _Echo:
 
 
 def _g(value: float) -> str:
-    """``value`` (never negative) in 10 characters at most: 5 significant digits,
-    4 when its exponent has three digits (below 1e-99 or from 1e100)."""
-    text = f"{value:.5g}"
-    return text if len(text) <= 10 else f"{value:.4g}"
+    """``value`` in 10 characters at most: 5 significant digits, fewer when that is
+    too wide (a three-digit exponent, or a minus sign with a long exponent)."""
+    for digits in (5, 4, 3):
+        text = f"{value:.{digits}g}"
+        if len(text) <= 10:
+            break
+    return text

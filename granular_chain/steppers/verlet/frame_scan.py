@@ -129,7 +129,7 @@ def scan_frame(codes, chain, walls, u, v, f, x0, out, reach):
     ubits, vbits = u.view(np.int64), v.view(np.int64)
     nonfinite = 0
     # No branch: the loops vectorise. Three loops of two or three arrays each take
-    # two thirds of the time of one loop over all seven (measured at N = 10^4).
+    # two thirds of the time of one loop over all eight (measured at N = 10^4).
     for i in range(N):
         out.x[i] = x0[i] + u[i]
         nonfinite |= (ubits[i] & _EXPONENT) == _EXPONENT
