@@ -37,7 +37,7 @@ from granular_chain._compile import specialised
 from granular_chain.frames import FrameLog
 from granular_chain.model import build_model
 from granular_chain.steppers.verlet import frame_scan
-from granular_chain.steppers.verlet.driver import VerletRun
+from granular_chain.steppers.verlet.driver import VerletRun, _Chunk
 
 STATES = {"pulse": 0.0, "compressed": -0.01}
 
@@ -48,16 +48,10 @@ def prepared(grains: int, gap: float) -> VerletRun:
         "name": "scan", "granules": {"count": grains, "velocity": {0: 1.0}, "gap": gap},
         "contacts": {"exponent": 2.5}, "run": {"dt": 0.01, "t_end": 1000.0}})
     run = VerletRun(scene, build_model(scene), False, log=FrameLog(keep=False))
+    chunk = _Chunk(grains)
     while run.steps < 30_000:
-        run._advance(_Chunk(), 30_000 - run.steps)
+        run._advance(chunk, 30_000 - run.steps)
     return run
-
-
-class _Chunk:
-    """The driver's kernel-call helper with a fixed length (no rate adaptation)."""
-
-    def call(self, kernel, records):
-        return kernel(*records)
 
 
 def per_call_us(run: VerletRun, reach: bool, calls: int) -> float:

@@ -171,8 +171,9 @@ class _Echo:
 
     def line(self, row) -> None:
         step, t, ke, pe, diss, err, closed, sliding = row
-        text = (f"{step:>10d}{_g(t):>11}{_g(ke):>11}{_g(pe):>11}{_g(diss):>11}{err:>9.2e}"
-                f"{closed:>8d}{sliding:>8d}")
+        values = (str(step), _g(t), _g(ke), _g(pe), _g(diss), f"{err:.2e}", str(closed),
+                  str(sliding))
+        text = "".join(value.rjust(w) for value, w in zip(values, self._WIDTHS))
         if self._rich is not None:
             self._rich.print(text)
         else:
