@@ -113,12 +113,16 @@ output:
 # step: it sheds small waves backwards and slowly loses amplitude. For another
 # realisation change the seed in the script, or override single masses with
 # --set 'granules.mass=[...]' / sweep `granules.mass[i]`.
+# Radius 1 (spacing 2): the radius does not enter the scaled dynamics, only the
+# initial positions. Two neighbouring overlaps add up to 1.19 at most over the run,
+# more than a diameter at radius 1/2: granules i and i+2 would overlap, which this
+# nearest-neighbour model cannot describe.
 name: chain_disorder_mass
 units: scaled
 granules:
   count: {N}
   mass: {_flow(md)}
-  radius: 0.5
+  radius: 1.0
   gap: 0.0
   velocity: {{0: 1.0}}
 contacts:
@@ -141,12 +145,16 @@ output:
 # numpy.random.default_rng({SEED_FRICTION}) (rng.uniform(0, 1, 40)), mean 0.02, scaled
 # units; static threshold equal to the kinetic one. Struck at v0 = 1; the run stops
 # when every granule is held at rest: the pulse has died.
+# Radius 1 (spacing 2): the radius does not enter the scaled dynamics, only the
+# initial positions. Two neighbouring overlaps add up to 1.12 at most over the run,
+# more than a diameter at radius 1/2: granules i and i+2 would overlap, which this
+# nearest-neighbour model cannot describe.
 name: chain_disorder_friction
 units: scaled
 granules:
   count: 40
   mass: 1.0
-  radius: 0.5
+  radius: 1.0
   gap: 0.0
   velocity: {{0: 1.0}}
   friction:
@@ -157,7 +165,7 @@ contacts:
 run:
   stepper: verlet
   dt: 5.0e-3
-  t_end: 100.0
+  t_end: 150.0          # at rest at t = 130.86 (granule 24, eta = 8.9e-4, slides longest)
   stop: rest
 output:
   every: 4

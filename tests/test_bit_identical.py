@@ -9,7 +9,11 @@ and says in its commit which cases changed and by how much.
 
 numba compiles for the host CPU, and another instruction set may round
 differently: on a CPU other than the one recorded in the file the module is
-skipped, with the reason shown.
+skipped, with the reason shown. A CPU that has the recorded one's instructions
+(an AVX-512 AMD Zen 4 has rocketlake's) runs it by compiling for the recorded CPU,
+in a numba cache of its own::
+
+    NUMBA_CPU_NAME=rocketlake NUMBA_CACHE_DIR=/tmp/numba-rocketlake pytest tests/test_bit_identical.py
 """
 
 import importlib.util
@@ -35,7 +39,9 @@ CASES = TC.cases()
 
 if TC.machine()["cpu"] != REFERENCE["machine"]["cpu"]:
     pytest.skip(f"fingerprints made on CPU {REFERENCE['machine']['cpu']}, this is "
-                f"{TC.machine()['cpu']}", allow_module_level=True)
+                f"{TC.machine()['cpu']} (NUMBA_CPU_NAME={REFERENCE['machine']['cpu']} and a "
+                f"NUMBA_CACHE_DIR of its own run it where that CPU's instructions exist)",
+                allow_module_level=True)
 
 
 def test_every_case_has_a_fingerprint():
