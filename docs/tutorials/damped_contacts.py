@@ -71,7 +71,7 @@ column = gc.simulate(gc.load_scene(SCENES / "column.yaml"), progress=False)
 x = column.x_final
 overlaps = np.concatenate([[1.0 - x[0]], 2.0 - np.diff(x)])[::-1]  # from the top
 expected = column_overlaps(10, 1.0, 0.01, 1.0, 2.5)
-print(f"\ncolumn: {column.status.name} at t = {column.t_final:.1f}; largest relative "
+print(f"\ncolumn: {column.status} at t = {column.t_final:.1f}; largest relative "
       f"error of the static overlaps {np.max(np.abs(overlaps / expected - 1)):.1e}")
 
 # 4. the driven chain: the wall's work, dissipated and stored

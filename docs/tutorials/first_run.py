@@ -43,13 +43,14 @@ reader.set_active_time_value(reader.time_values[-1])
 frame = reader.read()[0]
 print(f"VTK frame at t = {reader.time_values[-1]:g}: {frame.n_points} granules, "
       f"point data {list(frame.point_data.keys())}")
-spheres = frame.glyph(geom=pv.Sphere(radius=0.5, theta_resolution=16, phi_resolution=16),
-                      orient=False, scale=False)
+# a unit sphere scaled by each granule's radius (point data "radius")
+spheres = frame.glyph(geom=pv.Sphere(radius=1.0, theta_resolution=16, phi_resolution=16),
+                      orient=False, scale="radius")
 plotter = pv.Plotter(off_screen=True, window_size=(1000, 260))
 plotter.add_mesh(spheres, scalars="velocity", cmap="RdBu_r", clim=(-0.7, 0.7),
                  scalar_bar_args={"title": "velocity"})
 plotter.view_xy()
-plotter.camera.zoom(3.2)
+plotter.camera.zoom(1.6)
 plotter.camera.focal_point = (float(frame.points[40, 0]), 0, 0)
 plotter.camera.position = (float(frame.points[40, 0]), 0, 60)
 plotter.screenshot("frame.png")

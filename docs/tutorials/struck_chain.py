@@ -1,7 +1,7 @@
 """A struck Hertz chain: the solitary wave, backscatter with friction, space-time diagrams.
 
 Granule 0 strikes 39 granules at rest (n = 5/2, scaled units: m = 1, k = 1,
-touching spheres of radius 1/2, so the spacing is 1). Without friction a
+touching spheres of radius 1, so the spacing is 2). Without friction a
 solitary wave crosses the chain at a constant speed; with Coulomb friction eta
 on every granule the pulse dies within a few granules and throws the first
 granules back.
@@ -18,7 +18,7 @@ def struck_chain(eta: float) -> gc.Result:
     """Run the chain with kinetic friction eta on every granule."""
     scene = gc.scene_from_dict({
         "name": f"struck_chain_eta{eta:g}",
-        "granules": {"count": 40, "radius": 0.5, "velocity": {0: 1.0},
+        "granules": {"count": 40, "radius": 1.0, "velocity": {0: 1.0},
                      "friction": {"kinetic": eta}},
         "contacts": {"exponent": 2.5, "stiffness": 1.0},
         "run": {"dt": 0.01, "t_end": 40.0},
@@ -30,7 +30,7 @@ def struck_chain(eta: float) -> gc.Result:
 runs = {eta: struck_chain(eta) for eta in (0.0, 0.1)}
 for eta, r in runs.items():
     back = diagnostics.backscatter(r, first=3)
-    print(f"eta = {eta:<4g} status {r.status.name:<6s} steps {r.steps}  "
+    print(f"eta = {eta:<4g} status {str(r.status):<7s} steps {r.steps}  "
           f"energy-ledger error {r.energy.balance_error:.1e}")
     print(f"           largest backward kinetic energy of granules 0-2: "
           f"{back['fraction_max']:.4f} E0 at t = {back['t_energy_max']:.2f}; "

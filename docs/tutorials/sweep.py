@@ -21,7 +21,7 @@ from granular_chain import diagnostics
 def backscattered_fraction(count: int, eta: float) -> float:
     """Largest backward kinetic energy of granules 0-2, over E0, for one chain."""
     scene = gc.scene_from_dict({
-        "granules": {"count": count, "radius": 0.5, "velocity": {0: 1.0},
+        "granules": {"count": count, "radius": 1.0, "velocity": {0: 1.0},
                      "friction": {"kinetic": eta}},
         "contacts": {"exponent": 2.5},
         "run": {"dt": 0.01, "t_end": 25.0, "stop": "rest"},
