@@ -36,6 +36,16 @@ SEED_MASS = 20240611
 SEED_FRICTION = 20240612
 
 
+def _radius_note(largest_sum: float) -> str:
+    """Header lines saying why a chain struck at v0 = 1 has radius 1 (``largest_sum``:
+    the largest sum of two neighbouring overlaps over the run)."""
+    return (f"# Radius 1 (spacing 2): the radius does not enter the scaled dynamics, only the\n"
+            f"# initial positions. Two neighbouring overlaps add up to {largest_sum:.2f} at most "
+            "over the run,\n"
+            f"# more than a diameter at radius 1/2: granules i and i+2 would overlap, which this\n"
+            f"# nearest-neighbour model cannot describe.")
+
+
 def _flow(values, fmt="{:.12g}") -> str:
     return "[" + ", ".join(fmt.format(float(v)) for v in values) + "]"
 
@@ -113,10 +123,7 @@ output:
 # step: it sheds small waves backwards and slowly loses amplitude. For another
 # realisation change the seed in the script, or override single masses with
 # --set 'granules.mass=[...]' / sweep `granules.mass[i]`.
-# Radius 1 (spacing 2): the radius does not enter the scaled dynamics, only the
-# initial positions. Two neighbouring overlaps add up to 1.19 at most over the run,
-# more than a diameter at radius 1/2: granules i and i+2 would overlap, which this
-# nearest-neighbour model cannot describe.
+{_radius_note(1.19)}
 name: chain_disorder_mass
 units: scaled
 granules:
@@ -145,10 +152,7 @@ output:
 # numpy.random.default_rng({SEED_FRICTION}) (rng.uniform(0, 1, 40)), mean 0.02, scaled
 # units; static threshold equal to the kinetic one. Struck at v0 = 1; the run stops
 # when every granule is held at rest: the pulse has died.
-# Radius 1 (spacing 2): the radius does not enter the scaled dynamics, only the
-# initial positions. Two neighbouring overlaps add up to 1.12 at most over the run,
-# more than a diameter at radius 1/2: granules i and i+2 would overlap, which this
-# nearest-neighbour model cannot describe.
+{_radius_note(1.12)}
 name: chain_disorder_friction
 units: scaled
 granules:
