@@ -8,13 +8,16 @@ when asked: a run that streams its frames to disk holds a fixed number of
 frames in memory (the first, the latest, and those waiting for the writers'
 thread: about 16 MiB of frames, at most 68 and at least 8), whatever the
 number of frames.
+
+A driver may also hand a state that is not yet a frame to the writers' thread
+(:meth:`FrameLog.defer`): the thread makes the frame, in order with the
+others, and may find instead that the run ends there (:class:`RunEnds`).
 """
 
 from __future__ import annotations
 
 import operator
 import threading
-import time
 from collections import deque
 from typing import NamedTuple, Optional, Protocol, Sequence
 
@@ -22,7 +25,7 @@ import numpy as np
 
 from .result import TERMS_ADDED, ledger_balance
 
-__all__ = ["Frame", "FrameWriter", "FrameLog"]
+__all__ = ["Frame", "FrameWriter", "FrameLog", "RunEnds"]
 
 
 class Frame(NamedTuple):
@@ -97,6 +100,25 @@ class FrameWriter(Protocol):
         """
 
 
+class RunEnds(Exception):
+    """Raised by a deferred frame's maker (:meth:`FrameLog.defer`): the run ends at
+    that state instead of recording it.
+
+    Parameters
+    ----------
+    status : granular_chain.codes.Status
+        How the run ends there.
+    message : str
+        What happened, for the Result.
+    mark : object
+        What the driver needs to end the run there (its step, time, ledger).
+    """
+
+    def __init__(self, status, message: str, mark):
+        super().__init__(message)
+        self.status, self.message, self.mark = status, message, mark
+
+
 class _Slot:
     """Frame arrays the log lends to a driver, and who still holds them: the
     writers' thread (until written) and the log (while it is the latest frame)."""
@@ -133,14 +155,18 @@ class FrameLog:
     for the next frame and :meth:`record` then takes them without a copy. With
     ``keep`` false the log reuses them once the writers have written the frame
     and a later frame has replaced it, so a streamed run allocates nothing per
-    frame.
+    frame. A driver may instead copy its state into the lent arrays and hand
+    them on with :meth:`defer`, which the writers' thread makes into a frame:
+    the stepping thread then spends on a frame only the copy (the Verlet
+    driver does, when the writers have a thread).
 
     The writers' thread looks for recorded frames every :data:`POLL_SECONDS`
     (less often while none comes, down to every :data:`IDLE_POLL_SECONDS`)
     rather than being woken for each: waking a thread costs the recording
     thread tens of microseconds, as much as writing a frame of 10^4 granules.
     It is woken only when the caller waits for it (a checkpoint's
-    :meth:`sync`, :meth:`finish`, or every frame array in its hands).
+    :meth:`sync`, :meth:`drain`, :meth:`finish`, or every frame array in its
+    hands), and then tells the caller as soon as a frame is written.
     It takes each frame soon after it is recorded, so the same few arrays
     cycle and stay in the recording core's cache: filling arrays that have
     left it costs twice as much.
@@ -171,8 +197,11 @@ class FrameLog:
         self._handed = self._written = 0
         self._closing = False
         self._wake = threading.Event()  # set when the caller waits for the writers' thread
+        self._progress = threading.Event()  # set by that thread after a frame, while one waits
+        self._waiting = False
         self._made = 0
         self._lock = threading.Lock()
+        self.ended: Optional[RunEnds] = None  #: set by the writers' thread (see :meth:`defer`)
         if background and self.writers:
             self._thread = threading.Thread(target=self._write_loop, name="frame-writers",
                                             daemon=True)
@@ -259,6 +288,49 @@ class FrameLog:
             frame = frame._replace(x=slot.x, v=slot.v, f=slot.f)
         slot.holders = 1 + (self._thread is not None)  # the log, the writers' thread
         self._hand_on(frame, slot)
+        self._keep(frame, slot)
+
+    def defer(self, make) -> None:
+        """Take the arrays last lent, filled with a state that is not yet a frame,
+        and ``make``: the writers' thread calls ``make(x, v, f)`` with them, in
+        order with the frames recorded, for the :class:`Frame` to keep and write.
+
+        ``make`` raises :class:`RunEnds` when the run ends at that state instead
+        (the frame is then not recorded): the thread sets :attr:`ended`, makes
+        no later deferred frame, and :meth:`drain` returns it.
+
+        Parameters
+        ----------
+        make : callable(x, v, f) -> Frame
+            Called from the writers' thread (only a log with ``background`` and
+            writers has one: see :attr:`background`).
+        """
+        slot, self._lent = self._lent, None
+        slot.holders = 2  # the log (while it is the latest frame), the writers' thread
+        self._raise_error()
+        self._pending.append((make, slot))
+        self._handed += 1
+
+    @property
+    def background(self) -> bool:
+        """Whether the writers run on a thread of their own (:meth:`defer` needs one)."""
+        return self._thread is not None
+
+    def drain(self) -> Optional["RunEnds"]:
+        """Wait until every frame handed on is made and written (raises a writer's error).
+
+        Returns
+        -------
+        RunEnds or None
+            What the deferred frame that ended the run raised, or None.
+        """
+        if self._thread is not None:
+            self._wait_for_writers(lambda: self._written >= self._handed)
+        self._raise_error()
+        return self.ended
+
+    def _keep(self, frame: Frame, slot: _Slot) -> None:
+        """Count a recorded frame, track its ledger error, keep it as asked."""
         self.count += 1
         self.max_balance_error = max(self.max_balance_error, frame.balance_error)
         if not self.keep and len(self._kept["t"]) >= 2:
@@ -297,7 +369,10 @@ class FrameLog:
                 continue
             pause = self.POLL_SECONDS
             try:
-                if self._error is None:  # else drain: the caller raises the first error
+                if self._error is None and type(frame) is not Frame:  # deferred: make it
+                    frame = self._make(frame, slot)
+                if self._error is None and frame is not None:
+                    # (else drain: the caller raises the first error)
                     for w in self.writers:
                         w.write_frame(frame)
             except BaseException as exc:  # handed to the caller's thread
@@ -305,13 +380,38 @@ class FrameLog:
             finally:
                 self._release(slot)
                 self._written += 1
+                if self._waiting:
+                    self._progress.set()
+
+    def _make(self, make, slot: _Slot) -> Optional[Frame]:
+        """A deferred frame, made and kept; None once the run has ended at one."""
+        frame = None
+        if self.ended is None:  # (else the run ended at an earlier state: not a frame)
+            try:
+                frame = make(slot.x, slot.v, slot.f)
+            except RunEnds as end:
+                self.ended = end
+        if frame is None:
+            self._release(slot)  # the log's hold: it never becomes the latest frame
+            return None
+        self._keep(frame, slot)
+        return frame
 
     def _wait_for_writers(self, done) -> None:
         """Wake the writers' thread (it may be looking seldom, after a pause in the
         frames) and wait until ``done()`` is true or the thread has ended."""
-        while not done() and self._thread.is_alive():
-            self._wake.set()
-            time.sleep(self.POLL_SECONDS)
+        # The thread sets _progress after each frame while _waiting: the caller
+        # goes on as soon as it may, not at its next look.
+        self._waiting = True
+        try:
+            while self._thread.is_alive():
+                self._progress.clear()
+                if done():
+                    break
+                self._wake.set()
+                self._progress.wait(self.POLL_SECONDS)
+        finally:
+            self._waiting = False
 
     def sync(self) -> None:
         """Every frame handed on is written and on disk (for a checkpoint): wait for

@@ -7,6 +7,11 @@ prints thermo lines, updates the progress bar, honours stop requests (SIGINT,
 SIGTERM) and decides when to stop. A call runs to the next frame or for about
 :data:`~granular_chain.interrupts.CHUNK_SECONDS`, whichever comes first; where
 calls end never changes the trajectory.
+
+When the writers have a thread of their own, a frame of the cadence is only
+copied here and stepping goes on; that thread makes and checks it
+(:meth:`VerletRun._defer`). A frame that ends the run there ends it as a check
+at once would have: same status, message, step, time and frames.
 """
 
 from __future__ import annotations
@@ -15,7 +20,8 @@ import math
 import sys
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Optional
+from functools import partial
+from typing import TYPE_CHECKING, NamedTuple, Optional
 
 import numpy as np
 
@@ -23,7 +29,7 @@ from ..._compile import specialised
 from ...codes import EVENT_KINDS, EventKind, Pause, Status
 from ...errors import SimulationError
 from ...forces import net_forces
-from ...frames import Frame, FrameLog
+from ...frames import Frame, FrameLog, RunEnds
 from ...interrupts import CHUNK_SECONDS, stop_signals
 from ...laws.damping import DAMPING_LINEAR
 from ...laws.friction import drift_tables
@@ -35,7 +41,7 @@ from .forced import forced_chunk
 from .forced_setup import (FORCED_STATE_ARRAYS, body_work, dashpot_rate, forced_dt_limit,
                            forced_records, is_forced, walls_at)
 from .frame_scan import (CONTACT_PASSED, LEFT_WALL_PASSED, NO_PROBLEM, FrameArrays, Scan,
-                         ScanCodes, scan_frame)
+                         ScanCodes, scan_frame, settle_frame, stash_state)
 from .kernel import chunk_kernel, synchronise
 from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
                       Features, State, Timestep)
@@ -300,6 +306,15 @@ class VerletRun:
         self._scanner = specialised(scan_frame, (
             self._scan_codes, self.chain, model.walls, self.u, self.vs, self.f, model.x0,
             FrameArrays(x, x, x, self._v2), 1), (0,))
+        # A run whose writers have a thread of their own hands each frame of the
+        # cadence to it as a copy of the state, and steps on (see _defer).
+        self.deferring = self.log.background and not self.forced and self.event_log is None
+        if self.deferring:
+            frame_arrays = FrameArrays(x, x, x, x)
+            self._stash = specialised(stash_state, (self.u, self.vs, self.f, frame_arrays), ())
+            self._settle_v2 = np.empty(N)  # (the writers' thread's work array)
+            self._settler = specialised(settle_frame, (
+                self._scan_codes, self.chain, model.walls, model.x0, frame_arrays), (0,))
         ke0, pe0 = model.energies(self.u, self.v)
         self.e0 = ke0 + pe0
         self.steps, self.t_now, self.dt_now = 0, 0.0, dt
@@ -417,6 +432,7 @@ class VerletRun:
         # calls end, so its stop step does not depend on them.
         rest_watch = self.merged and bool(self.stop_mode & STOP_ON_REST)
         chunk_done = int(Pause.CHUNK_DONE)  # (a plain int: compared after every call)
+        deferring = self.deferring
         while self.steps < self.n_total or (self.last_dt and not self.short_taken):
             if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
                 self._begin_short_step()  # (next_frame is already its end: _last_step)
@@ -425,11 +441,24 @@ class VerletRun:
             target = min(self.next_frame, self.next_thermo, self.next_ck,
                          self.steps + chunk.steps, self.n_total)
             code = self._advance(chunk, int(target) - self.steps)
+            if deferring and self.log.ended is not None:  # a frame handed on ended the run
+                return self._drained()
             if rest_watch:
                 code = self._synchronise(code)
             at_frame = self.steps >= self.next_frame or code != chunk_done or stop.requested
             at_thermo = self.steps >= self.next_thermo
             at_ck = self.steps >= self.next_ck
+            if deferring and at_frame and code == chunk_done and not (
+                    at_thermo or at_ck or stop.requested or self._finished()):
+                if not rest_watch:
+                    self._synchronise(code)
+                self._defer()
+                continue
+            if deferring and (at_frame or at_thermo or at_ck):
+                # what follows reads the frames handed on: they are all made first
+                ended = self._drained()
+                if ended is not None:
+                    return ended
             if at_frame or at_thermo:
                 if not rest_watch:
                     code = self._synchronise(code)
@@ -448,6 +477,9 @@ class VerletRun:
             if at_ck:  # (the cadence moves on first: the state saved holds the next one)
                 self.next_ck = self.steps + ck_every
                 self._checkpoint()
+        ended = self._drained() if deferring else None
+        if ended is not None:
+            return ended
         if self.limited:
             return Status.MAX_STEPS, (
                 f"stopped after run.max_steps = {self.max_steps} steps at t = {self.t_now:.6g} "
@@ -633,13 +665,9 @@ class VerletRun:
     def _check(self, code: int):
         """``((status, message) or None, scan)``: whether the run ends here, and the
         :meth:`scan` of the state it ends or goes on with."""
-        dt, T = self.plan.dt, self.T
         scan = self.scan(reach=code != Pause.CHUNK_DONE)
         if scan.nonfinite >= 0:
-            return (Status.NONFINITE, (
-                f"non-finite state by t = {self.t_now:.6g} at granule {scan.nonfinite}: the "
-                f"step dt = {dt:g} is likely too large for the stiffest contact (period or "
-                f"collision time {T:.4g}); reduce run.dt")), None
+            return self._nonfinite(scan, self.t_now), None
         ended = None
         if code == Status.SEPARATED:
             self.t_now = _backtrack_to_separation(self.model, self.u, self.vs, self.f,
@@ -654,30 +682,99 @@ class VerletRun:
                 "held by static friction"
             ended = Status.AT_REST, (
                 f"every granule at rest ({held}) at t = {self.t_now:.12g}")
+        broken = self._broken(scan, self.t_now, self.ledger, self.sync)
+        if broken is not None:
+            return broken, None
+        return ended, scan
+
+    def _nonfinite(self, scan: Scan, t_now: float) -> tuple:
+        """(Status.NONFINITE, message) for a scan that found a non-finite granule."""
+        return Status.NONFINITE, (
+            f"non-finite state by t = {t_now:.6g} at granule {scan.nonfinite}: the step "
+            f"dt = {self.plan.dt:g} is likely too large for the stiffest contact (period or "
+            f"collision time {self.T:.4g}); reduce run.dt")
+
+    def _broken(self, scan: Scan, t_now: float, ledger, sync) -> Optional[tuple]:
+        """(status, message) when the scanned state at ``t_now`` has granules that passed
+        each other or a wall, or a ledger off by the initial energy; else None.
+        ``ledger`` and ``sync``: the run's ledger and synchronising kick's terms then."""
+        dt, T = self.plan.dt, self.T
         if scan.problem != NO_PROBLEM:
-            message = f"{_passed(scan, self.chain.olim)} at t = {self.t_now:.6g}; " + \
+            message = f"{_passed(scan, self.chain.olim)} at t = {t_now:.6g}; " + \
                 OVERLAP_ADVICE
             if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
                 message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
                             f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
-            return (Status.OVERLAP, message), None
+            return Status.OVERLAP, message
         ke, pe = scan.kinetic, scan.potential
-        balance = abs(ke + pe + self.ledger[0] - self.sync[0] + self.ledger[1] - self.e0)
+        balance = abs(ke + pe + ledger[0] - sync[0] + ledger[1] - self.e0)
         scale = self.e0
         if self.forced:
             terms = self._added_terms()
-            balance = abs(ledger_balance(ke, pe, self.ledger[0], self.ledger[1], *terms,
-                                         self.e0))
+            balance = abs(ledger_balance(ke, pe, ledger[0], ledger[1], *terms, self.e0))
             # (what the ledger holds: a column settling starts with no energy)
             scale = max(self.e0, ke + pe, *(abs(x) for x in terms))
         if scale > 0 and not balance <= _UNSTABLE_BALANCE * scale:
             # A stable run balances its ledger to O(dt^2); an error as large
             # as the initial energy itself means the integration blew up.
-            return (Status.UNSTABLE, (
+            return Status.UNSTABLE, (
                 f"energy ledger off by {balance / scale:.3g} x the initial energy at "
-                f"t = {self.t_now:.6g}: the integration is unstable; reduce run.dt (now "
-                f"{dt:g}; stiffest contact time {T:.4g})")), None
-        return ended, scan
+                f"t = {t_now:.6g}: the integration is unstable; reduce run.dt (now "
+                f"{dt:g}; stiffest contact time {T:.4g})")
+        return None
+
+    def _defer(self) -> None:
+        """Hand the frame at this step of the cadence to the writers' thread and step
+        on: copy the state into arrays the frame log lends (:func:`.frame_scan.stash_state`,
+        a few microseconds); the thread makes the frame (:meth:`_settle`), checks
+        it as :meth:`_check` would, keeps and writes it.
+
+        A frame handed on may end the run (a non-finite state, a ledger off by the
+        initial energy): the run then ends there, as if it had been checked at once
+        (:meth:`_drained`), and the steps taken after it are dropped. Only frames
+        after a call that found nothing else (Pause.CHUNK_DONE) are handed on.
+        """
+        x, v, f = self.log.lend(self.model.count)
+        self._stash(self.u, self.vs, self.f, FrameArrays(x, v, f, x))
+        self.log.defer(partial(self._settle, _Mark(self.steps, self.t_now, self.ledger.copy(),
+                                                   self.counts.copy(), self.sync)))
+        self.next_frame = min(self.steps + self.plan.every, self._last_step())
+
+    def _settle(self, mark: "_Mark", x, v, f) -> Frame:
+        """(On the writers' thread.) The frame of a state :meth:`_defer` copied into
+        ``x`` (displacements), ``v``, ``f``; raises RunEnds when the run ends there."""
+        first, ke, pe = self._settler(self._scan_codes, self.chain, self.model.walls,
+                                      self.model.x0, FrameArrays(x, v, f, self._settle_v2))
+        scan = Scan(first, NO_PROBLEM, -1, 0.0, ke, pe)
+        ended = self._nonfinite(scan, mark.t_now) if first >= 0 else \
+            self._broken(scan, mark.t_now, mark.ledger, mark.sync)
+        if ended is not None:
+            raise RunEnds(*ended, mark)
+        return Frame(mark.steps, mark.t_now, x, v, f, ke, pe, mark.ledger[0] - mark.sync[0],
+                     mark.ledger[1], self.e0)
+
+    def _drained(self) -> Optional[tuple]:
+        """Wait until the frames handed on are made and written; (status, message) when
+        one of them ended the run, whose step, time, ledger and counts are then
+        those of that frame again; else None."""
+        end = self.log.drain()
+        if end is None:
+            return None
+        mark = end.mark
+        self.steps, self.t_now, self.sync = mark.steps, mark.t_now, mark.sync
+        self.ledger[:] = mark.ledger
+        self.counts[:] = mark.counts
+        return end.status, end.message
+
+
+class _Mark(NamedTuple):
+    """What a frame handed to the writers' thread needs of the run at its step."""
+
+    steps: int
+    t_now: float
+    ledger: np.ndarray  #: (coulomb, viscous) dissipated so far (a copy)
+    counts: np.ndarray  #: event counts so far (a copy)
+    sync: tuple  #: the synchronising half kick's (work, stops, slips)
 
 
 class _NoStop:

@@ -1,4 +1,6 @@
-"""What the Verlet driver reads off the state at an output frame, in one compiled call.
+"""What the Verlet driver reads off the state at an output frame, in one compiled call
+(:func:`scan_frame`), or in two when the frame is made on the writers' thread
+(:func:`stash_state` on the stepping thread, then :func:`settle_frame`).
 
 At a frame the driver needs the frame's arrays (x = x0 + u, v, f), whether the
 state is finite, whether two centres have met or a granule has passed a wall
@@ -28,7 +30,8 @@ import numpy as np
 
 from ...forces import contact_overlap, left_wall_overlap, potential_energy, right_wall_overlap
 
-__all__ = ["ScanCodes", "FrameArrays", "Scan", "scan_frame", "NO_PROBLEM", "CONTACT_PASSED",
+__all__ = ["ScanCodes", "FrameArrays", "Scan", "scan_frame", "stash_state", "settle_frame",
+           "NO_PROBLEM", "CONTACT_PASSED",
            "LEFT_WALL_PASSED", "RIGHT_WALL_PASSED"]
 
 # Values of Scan.problem.
@@ -149,10 +152,91 @@ def scan_frame(codes, chain, walls, u, v, f, x0, out, reach):
     problem, index, overlap = NO_PROBLEM, -1, 0.0
     if reach:
         problem, index, overlap = _passed(left_wall, right_wall, chain, walls, u)
-    kinetic = 0.5 * np.dot(chain.mass, out.v2)
+    kinetic, potential = _energies(law, left_wall, right_wall, chain, walls, u, out.v2)
+    return first, problem, index, overlap, kinetic, potential
+
+
+@numba.njit(cache=True)
+def stash_state(u, v, f, out):
+    """Copy the state into a frame's arrays as it is: the part of a frame the
+    stepping thread must make before it steps on (the rest is
+    :func:`settle_frame`'s, on the writers' thread). Keeps the GIL: it lasts
+    a few microseconds at N = 10^4, and a hand-over of the GIL would cost as much.
+
+    Parameters
+    ----------
+    u, v, f : ndarray, shape (N,)
+        Displacements, synchronised velocities and net spring forces.
+    out : FrameArrays
+        Written: x = u (not yet x0 + u), v and f; v2 is not used.
+    """
+    for i in range(u.size):
+        out.x[i] = u[i]
+    for i in range(u.size):
+        out.v[i] = v[i]
+    for i in range(u.size):
+        out.f[i] = f[i]
+
+
+@numba.njit(nogil=True, cache=True)
+def settle_frame(codes, chain, walls, x0, out):
+    """Make a frame of a state :func:`stash_state` copied into ``out``: the first
+    non-finite granule and the energies, as :func:`scan_frame` finds them, then
+    x = x0 + u in place. Without the GIL (it runs on the writers' thread).
+
+    Parameters
+    ----------
+    codes : ScanCodes
+        Compile-time codes (literal fields).
+    chain : granular_chain.steppers.verlet.records.Chain
+        The chain's constants (d0, k, n, mass).
+    walls : ndarray, shape (6,)
+        (d0, k, n) of the left, then the right wall contact.
+    x0 : ndarray, shape (N,)
+        Initial centre positions.
+    out : FrameArrays
+        On entry x holds the displacements u, v and f the state's; on return x
+        holds x0 + u, and v2 the squared velocities.
+
+    Returns
+    -------
+    tuple
+        (first non-finite granule or -1, kinetic, potential): the fields
+        ``nonfinite``, ``kinetic`` and ``potential`` of :class:`Scan` (the
+        kernel that stopped at this state found no other problem).
+    """
+    law = numba.literally(codes.law)
+    left_wall = numba.literally(codes.left_wall)
+    right_wall = numba.literally(codes.right_wall)
+    u, v = out.x, out.v
+    ubits, vbits = u.view(np.int64), v.view(np.int64)
+    nonfinite = 0
+    for i in range(u.size):
+        nonfinite |= (ubits[i] & _EXPONENT) == _EXPONENT
+    for i in range(u.size):
+        vi = v[i]
+        out.v2[i] = vi * vi
+        nonfinite |= (vbits[i] & _EXPONENT) == _EXPONENT
+    first = -1
+    if nonfinite:
+        for i in range(u.size):
+            if not (np.isfinite(u[i]) and np.isfinite(v[i])):
+                first = i
+                break
+    kinetic, potential = _energies(law, left_wall, right_wall, chain, walls, u, out.v2)
+    for i in range(u.size):  # (u is out.x: each value read before it is replaced)
+        out.x[i] = x0[i] + u[i]
+    return first, kinetic, potential
+
+
+@numba.njit(inline="always", cache=True)
+def _energies(law, left_wall, right_wall, chain, walls, u, v2):
+    """(kinetic, potential): 0.5 m . v2 by the BLAS dot product and the ordered sum
+    of the contacts' and walls' elastic energies, as Model.energies makes them."""
+    kinetic = 0.5 * np.dot(chain.mass, v2)
     potential = potential_energy(law, left_wall, right_wall, u, chain.d0, chain.k, chain.n,
                                  walls)
-    return first, problem, index, overlap, kinetic, potential
+    return kinetic, potential
 
 
 @numba.njit(inline="always", cache=True)
