@@ -82,7 +82,8 @@ class FrameWriter(Protocol):
     """What a writer attached to a run provides."""
 
     def write_frame(self, frame: Frame) -> None:
-        """Write one frame (called in time order, from the driver's thread).
+        """Write one frame (called in time order, from the driver's thread, or from
+        the writers' thread when the log has one).
 
         Parameters
         ----------
@@ -111,7 +112,8 @@ class RunEnds(Exception):
     message : str
         What happened, for the Result.
     mark : object
-        What the driver needs to end the run there (its step, time, ledger).
+        What the driver needs to end the run there (for the Verlet driver, a
+        ``_Mark``: its step, time, ledger, event counts and synchronising kick).
     """
 
     def __init__(self, status, message: str, mark):
@@ -158,7 +160,8 @@ class FrameLog:
     frame. A driver may instead copy its state into the lent arrays and hand
     them on with :meth:`defer`, which the writers' thread makes into a frame:
     the stepping thread then spends on a frame only the copy (the Verlet
-    driver does, when the writers have a thread).
+    driver does when the writers have a thread and the frames are not kept,
+    outside forced scenes and ``output.events``).
 
     The writers' thread looks for recorded frames every :data:`POLL_SECONDS`
     (less often while none comes, down to every :data:`IDLE_POLL_SECONDS`)
@@ -202,6 +205,7 @@ class FrameLog:
         self._made = 0
         self._lock = threading.Lock()
         self.ended: Optional[RunEnds] = None  #: set by the writers' thread (see :meth:`defer`)
+        self._failed = False  # a writer raised: the thread writes nothing more
         if background and self.writers:
             self._thread = threading.Thread(target=self._write_loop, name="frame-writers",
                                             daemon=True)
@@ -305,10 +309,10 @@ class FrameLog:
             Called from the writers' thread (only a log with ``background`` and
             writers has one: see :attr:`background`).
         """
+        self._raise_error()
         slot, self._lent = self._lent, None
         slot.holders = 2  # the log (while it is the latest frame), the writers' thread
-        self._raise_error()
-        self._pending.append((make, slot))
+        self._pending.append((make, slot, True))
         self._handed += 1
 
     @property
@@ -349,14 +353,14 @@ class FrameLog:
                 w.write_frame(frame)
             return
         self._raise_error()
-        self._pending.append((frame, slot))
+        self._pending.append((frame, slot, False))
         self._handed += 1
 
     def _write_loop(self) -> None:
         pending, pause = self._pending, self.POLL_SECONDS
         while True:
             try:
-                frame, slot = pending.popleft()
+                frame, slot, deferred = pending.popleft()
             except IndexError:
                 if self._closing:  # (frames recorded before closing are in the deque by now)
                     if not pending:
@@ -369,14 +373,14 @@ class FrameLog:
                 continue
             pause = self.POLL_SECONDS
             try:
-                if self._error is None and type(frame) is not Frame:  # deferred: make it
+                if deferred:
                     frame = self._make(frame, slot)
-                if self._error is None and frame is not None:
-                    # (else drain: the caller raises the first error)
+                if not self._failed and frame is not None:
+                    # (after a writer's error, drain: the caller raises that error)
                     for w in self.writers:
                         w.write_frame(frame)
             except BaseException as exc:  # handed to the caller's thread
-                self._error = exc
+                self._error, self._failed = exc, True
             finally:
                 self._release(slot)
                 self._written += 1
@@ -384,17 +388,19 @@ class FrameLog:
                     self._progress.set()
 
     def _make(self, make, slot: _Slot) -> Optional[Frame]:
-        """A deferred frame, made and kept; None once the run has ended at one."""
+        """A deferred frame, made and kept; None once the run has ended at one or a
+        writer has failed (the slot then goes back to the driver at once)."""
         frame = None
-        if self.ended is None:  # (else the run ended at an earlier state: not a frame)
-            try:
+        try:
+            if self.ended is None and not self._failed:
                 frame = make(slot.x, slot.v, slot.f)
-            except RunEnds as end:
-                self.ended = end
-        if frame is None:
-            self._release(slot)  # the log's hold: it never becomes the latest frame
-            return None
-        self._keep(frame, slot)
+        except RunEnds as end:
+            self.ended = end.with_traceback(None)  # (the maker's frames are not kept alive)
+        finally:
+            if frame is None:
+                self._release(slot)  # the log's hold: it never becomes the latest frame
+        if frame is not None:
+            self._keep(frame, slot)
         return frame
 
     def _wait_for_writers(self, done) -> None:

@@ -8,10 +8,11 @@ SIGTERM) and decides when to stop. A call runs to the next frame or for about
 :data:`~granular_chain.interrupts.CHUNK_SECONDS`, whichever comes first; where
 calls end never changes the trajectory.
 
-When the writers have a thread of their own, a frame of the cadence is only
-copied here and stepping goes on; that thread makes and checks it
+When the writers have a thread of their own and the frames are not kept in
+memory (outside forced scenes and ``output.events``), a frame of the cadence is
+only copied here and stepping goes on; that thread makes and checks it
 (:meth:`VerletRun._defer`). A frame that ends the run there ends it as a check
-at once would have: same status, message, step, time and frames.
+at once would have: same status, message, step, time, frames and event counts.
 """
 
 from __future__ import annotations
@@ -307,8 +308,13 @@ class VerletRun:
             self._scan_codes, self.chain, model.walls, self.u, self.vs, self.f, model.x0,
             FrameArrays(x, x, x, self._v2), 1), (0,))
         # A run whose writers have a thread of their own hands each frame of the
-        # cadence to it as a copy of the state, and steps on (see _defer).
-        self.deferring = self.log.background and not self.forced and self.event_log is None
+        # cadence to it as a copy of the state, and steps on (see _defer). Only when
+        # the log reuses its frame arrays: waiting for one bounds how far the stepping
+        # runs ahead of the frames handed on (a log that keeps every frame would let
+        # it run on past a frame that ends the run). Forced scenes and the event log
+        # make every frame here.
+        self.deferring = (self.log.background and not self.log.keep and not self.forced
+                          and self.event_log is None)
         if self.deferring:
             frame_arrays = FrameArrays(x, x, x, x)
             self._stash = specialised(stash_state, (self.u, self.vs, self.f, frame_arrays), ())
@@ -732,7 +738,9 @@ class VerletRun:
         A frame handed on may end the run (a non-finite state, a ledger off by the
         initial energy): the run then ends there, as if it had been checked at once
         (:meth:`_drained`), and the steps taken after it are dropped. Only frames
-        after a call that found nothing else (Pause.CHUNK_DONE) are handed on.
+        of the cadence after a call that found nothing else (Pause.CHUNK_DONE) are
+        handed on; a frame at a thermo line, a checkpoint, a stop request or the
+        run's last step is made at once (:meth:`_loop`).
         """
         x, v, f = self.log.lend(self.model.count)
         self._stash(self.u, self.vs, self.f, FrameArrays(x, v, f, x))
@@ -756,7 +764,8 @@ class VerletRun:
     def _drained(self) -> Optional[tuple]:
         """Wait until the frames handed on are made and written; (status, message) when
         one of them ended the run, whose step, time, ledger and counts are then
-        those of that frame again; else None."""
+        those of that frame again; else None. (The state arrays u, v, f stay where
+        the stepping went: a run that ends so is over, never checkpointed.)"""
         end = self.log.drain()
         if end is None:
             return None
