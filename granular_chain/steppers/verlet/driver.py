@@ -347,8 +347,15 @@ class VerletRun:
         if self.forced:
             return Frame(self.steps, self.t_now, x, v, f, ke, pe,
                          self.ledger[0], self.ledger[1], self.e0, *self._added_terms())
-        return Frame(self.steps, self.t_now, x, v, f, ke, pe,
-                     self.ledger[0] - self.sync[0], self.ledger[1], self.e0)
+        return self._unforced_frame(self.steps, self.t_now, x, v, f, scan, self.ledger,
+                                    self.sync)
+
+    def _unforced_frame(self, steps, t_now, x, v, f, scan: Scan, ledger, sync) -> Frame:
+        """A frame of a scene without forcing: the Coulomb work dissipated by ``t_now``
+        is the ledger's less the synchronising half kick's, not yet taken (merged
+        kicks; 0 otherwise)."""
+        return Frame(steps, t_now, x, v, f, scan.kinetic, scan.potential,
+                     ledger[0] - sync[0], ledger[1], self.e0)
 
     def scan(self, reach: bool = True) -> Scan:
         """Read the state off in one compiled call (:func:`.frame_scan.scan_frame`).
@@ -758,8 +765,8 @@ class VerletRun:
             self._broken(scan, mark.t_now, mark.ledger, mark.sync)
         if ended is not None:
             raise RunEnds(*ended, mark)
-        return Frame(mark.steps, mark.t_now, x, v, f, ke, pe, mark.ledger[0] - mark.sync[0],
-                     mark.ledger[1], self.e0)
+        return self._unforced_frame(mark.steps, mark.t_now, x, v, f, scan, mark.ledger,
+                                    mark.sync)
 
     def _drained(self) -> Optional[tuple]:
         """Wait until the frames handed on are made and written; (status, message) when

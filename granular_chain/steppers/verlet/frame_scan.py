@@ -143,12 +143,7 @@ def scan_frame(codes, chain, walls, u, v, f, x0, out, reach):
         nonfinite |= (vbits[i] & _EXPONENT) == _EXPONENT
     for i in range(N):
         out.f[i] = f[i]
-    first = -1
-    if nonfinite:
-        for i in range(N):
-            if not (np.isfinite(u[i]) and np.isfinite(v[i])):
-                first = i
-                break
+    first = _first_nonfinite(u, v) if nonfinite else -1
     problem, index, overlap = NO_PROBLEM, -1, 0.0
     if reach:
         problem, index, overlap = _passed(left_wall, right_wall, chain, walls, u)
@@ -217,16 +212,21 @@ def settle_frame(codes, chain, walls, x0, out):
         vi = v[i]
         out.v2[i] = vi * vi
         nonfinite |= (vbits[i] & _EXPONENT) == _EXPONENT
-    first = -1
-    if nonfinite:
-        for i in range(u.size):
-            if not (np.isfinite(u[i]) and np.isfinite(v[i])):
-                first = i
-                break
+    first = _first_nonfinite(u, v) if nonfinite else -1
     kinetic, potential = _energies(law, left_wall, right_wall, chain, walls, u, out.v2)
     for i in range(u.size):  # (u is out.x: each value read before it is replaced)
         out.x[i] = x0[i] + u[i]
     return first, kinetic, potential
+
+
+@numba.njit(inline="always", cache=True)
+def _first_nonfinite(u, v):
+    """The first granule whose u or v is NaN or infinite, -1 when none is (the scans'
+    branch-free loops only tell whether one is)."""
+    for i in range(u.size):
+        if not (np.isfinite(u[i]) and np.isfinite(v[i])):
+            return i
+    return -1
 
 
 @numba.njit(inline="always", cache=True)
