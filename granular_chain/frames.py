@@ -309,11 +309,10 @@ class FrameLog:
             Called from the writers' thread (only a log with ``background`` and
             writers has one: see :attr:`background`).
         """
-        self._raise_error()
+        self._raise_error()  # (before the lent arrays are taken: they stay lent)
         slot, self._lent = self._lent, None
         slot.holders = 2  # the log (while it is the latest frame), the writers' thread
-        self._pending.append((make, slot, True))
-        self._handed += 1
+        self._queue(make, slot, True)
 
     @property
     def background(self) -> bool:
@@ -352,8 +351,12 @@ class FrameLog:
             for w in self.writers:
                 w.write_frame(frame)
             return
+        self._queue(frame, slot, False)
+
+    def _queue(self, item, slot: _Slot, deferred: bool) -> None:
+        """Hand a frame (or a deferred frame's maker) to the writers' thread."""
         self._raise_error()
-        self._pending.append((frame, slot, False))
+        self._pending.append((item, slot, deferred))
         self._handed += 1
 
     def _write_loop(self) -> None:
@@ -422,9 +425,7 @@ class FrameLog:
     def sync(self) -> None:
         """Every frame handed on is written and on disk (for a checkpoint): wait for
         the writers' thread, then flush each writer that buffers."""
-        if self._thread is not None:  # every frame handed on is written
-            self._wait_for_writers(lambda: self._written >= self._handed)
-        self._raise_error()
+        self.drain()  # every frame handed on is written
         for w in self.writers:
             flush = getattr(w, "flush", None)
             if flush is not None:
