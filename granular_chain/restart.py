@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .checkpoint import CHECKPOINT, load_checkpoint, scene_difference
-from .rundir import (MARKER, OutputError, _foreign_files, _pid_alive, check_out, read_marker,
+from .rundir import (MARKER, OutputError, _pid_alive, check_out, check_partial, read_marker,
                      remove_files)
 
 __all__ = ["RestartPlan", "plan_restart"]
@@ -58,8 +58,8 @@ class RestartPlan:
         try:
             for path in sorted(self.source.rglob("*")):
                 rel = path.relative_to(self.source)
-                if path.is_dir() or rel.as_posix() == MARKER:
-                    continue
+                if path.is_symlink() or not path.is_file() or rel.as_posix() == MARKER:
+                    continue  # (check_partial refused links; one made since is not copied)
                 (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy2(path, tmp / rel)
                 self._copied.append(rel.as_posix())
@@ -127,12 +127,9 @@ def plan_restart(args, scene) -> RestartPlan:
     if scene.output.plots and not scene.output.trajectory:
         raise OutputError(f"--restart {source}: the plots of a continued run are drawn from "
                           f"its trajectory.h5; this run writes none (output.trajectory: false)")
+    # every file copied must be one the run wrote: listed, and a regular file
+    check_partial(source, {**marker, "files": [*marker.get("files", []), CHECKPOINT]})
     if not partial:
-        foreign = _foreign_files(source, {**marker, "files": [*marker.get("files", []),
-                                                              CHECKPOINT]})
-        if foreign:
-            raise OutputError(f"--restart {source}: {foreign[0]} was not written by the engine; "
-                              f"move it out of the folder first")
         return RestartPlan(source, source, False)
     out = Path(marker.get("destination") or source.with_name(source.name.split(".partial-")[0][1:]))
     check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=False)

@@ -23,6 +23,7 @@ import hashlib
 import json
 import os
 import shutil
+import stat
 import tempfile
 from pathlib import Path
 from typing import Iterable, Optional, Sequence
@@ -30,8 +31,8 @@ from typing import Iterable, Optional, Sequence
 import yaml
 
 __all__ = ["MARKER", "OutputError", "RunFolder", "default_out", "read_marker", "check_out",
-           "check_new_files", "adopt_files", "write_text_atomic", "stale_partials",
-           "remove_files"]
+           "Claim", "claim_folder", "claim_file", "write_atomic", "write_text_atomic",
+           "stale_partials", "remove_files", "check_partial"]
 
 MARKER = "run.json"
 ENGINE = "granular_chain"
@@ -163,6 +164,10 @@ def check_out(out: Path, *, overwrite: bool, scene_source: str, is_default: bool
                           f"for the run (for example --out runs/first)")
     if out.is_symlink():
         raise OutputError(f"{name}: is a symbolic link; name the folder itself")
+    owner = _owning_folder(resolved.parent)
+    if owner is not None:
+        raise OutputError(f"{name}: is inside {owner}, a folder of granular-chain "
+                          f"{_command_of(read_marker(owner))}; name a folder outside it")
     if not out.exists():
         for parent in out.parents:  # a file where a folder is needed: say so now
             if parent.exists() and not parent.is_dir():
@@ -175,6 +180,9 @@ def check_out(out: Path, *, overwrite: bool, scene_source: str, is_default: bool
         what = "an empty folder" if not any(out.iterdir()) else "a folder"
         raise OutputError(f"{name}: exists and is {what} the engine did not write (no "
                           f"{MARKER}); nothing was changed: name a new folder")
+    if _command_of(marker) != "run":
+        raise OutputError(f"{name}: holds the output of granular-chain {_command_of(marker)}; "
+                          f"nothing was changed: name a new folder")
     if not marker.get("complete") and _pid_alive(marker.get("pid")) \
             and marker.get("pid") != os.getpid():
         raise OutputError(f"{name}: a run is being written there (process {marker['pid']})")
@@ -240,13 +248,27 @@ class RunFolder:
                 break  # not empty (or not ours to remove): leave it and its parents
 
     def _write_marker(self, folder: Path, *, complete: bool, reason: str,
-                      files: Iterable[str]) -> None:
-        data = {"engine": ENGINE, "version": _version(), "complete": complete,
-                "reason": reason, "pid": os.getpid(), **self.about,
-                "files": sorted(files)}
+                      files: Iterable[str], streams: Sequence[str] = ()) -> None:
+        data = {"engine": ENGINE, "version": _version(), "command": "run",
+                "complete": complete, "reason": reason, "pid": os.getpid(), **self.about,
+                "files": sorted(files), **({"streams": list(streams)} if streams else {})}
         tmp = folder / f".{MARKER}.tmp"
         tmp.write_text(json.dumps(data, indent=2) + "\n")
         os.replace(tmp, folder / MARKER)
+
+    def note_files(self, streams: Sequence[str] = ()) -> None:
+        """List the files written so far in the temporary folder's marker (at a
+        checkpoint): ``--restart`` of a killed run copies only what it lists.
+
+        Parameters
+        ----------
+        streams : sequence of str
+            Subfolders the writers keep adding frames to (frames after the
+            checkpoint are the engine's too; a continued run drops them).
+        """
+        files = [f for f in _files_below(self.tmp) if f != MARKER]
+        self._write_marker(self.tmp, complete=False, reason="running", files=files,
+                           streams=streams)
 
     def keep(self, *, reason: str) -> Path:
         """Leave the run where it is (its hidden temporary folder), marked incomplete:
@@ -402,53 +424,45 @@ def stale_partials(parent: Path, name: str, recoverable: bool) -> list[Path]:
     return found
 
 
-def check_new_files(paths: Sequence[Path], what: str) -> None:
-    """Refuse to write ``paths`` where a file exists that the engine did not write.
+def check_partial(folder: Path, marker: dict, flag: str = "--restart") -> None:
+    """Refuse to continue a run folder holding anything its marker does not vouch for.
 
-    A file inside a run folder and listed in its marker is the engine's and
-    may be replaced; any other existing file is the user's.
-
-    Parameters
-    ----------
-    paths : sequence of Path
-        Files about to be written.
-    what : str
-        The flag or argument that chose them, for the message (``--out``).
-    """
-    for path in paths:
-        path = Path(path)
-        if not path.exists() and not path.is_symlink():
-            continue
-        for folder in path.parents:
-            marker = read_marker(folder)
-            if marker is not None:
-                rel = path.relative_to(folder).as_posix()
-                if rel in marker.get("files", []) and path.is_file():
-                    break
-        else:
-            raise OutputError(f"{what}: {path} exists and was not written by the engine; "
-                              f"nothing was changed: choose another place")
-
-
-def adopt_files(folder: Path, paths: Sequence[Path]) -> None:
-    """Add files the engine wrote later (plots of a finished run) to a run folder's marker.
+    Every entry below ``folder`` must be a folder or a regular file (no link,
+    device or pipe), and every file listed in the marker, or inside one of the
+    marker's ``streams`` (frames a killed run wrote after its last checkpoint).
 
     Parameters
     ----------
     folder : Path
-        A run folder.
-    paths : sequence of Path
-        Files inside ``folder`` to add.
+        An incomplete run folder, or a killed run's hidden partial folder.
+    marker : dict
+        Its marker.
+    flag : str
+        The flag that named ``folder``, for the message.
+
+    Raises
+    ------
+    OutputError
+        ``folder`` holds something else; nothing was copied.
     """
-    marker = read_marker(folder)
-    if marker is None:
-        return
-    rel = {Path(p).resolve().relative_to(Path(folder).resolve()).as_posix() for p in paths}
-    marker["files"] = sorted(set(marker.get("files", [])) | rel)
-    write_text_atomic(Path(folder) / MARKER, json.dumps(marker, indent=2) + "\n")
+    listed = set(marker.get("files", [])) | {MARKER}
+    streams = [s.rstrip("/") + "/" for s in marker.get("streams", [])]
+    for root, dirs, files in os.walk(folder):
+        for entry in sorted(dirs + files):
+            path = Path(root) / entry
+            rel = path.relative_to(folder).as_posix()
+            mode = path.lstat().st_mode
+            if stat.S_ISDIR(mode):
+                continue
+            if not stat.S_ISREG(mode):
+                raise OutputError(f"{flag} {folder}: {rel} is not a regular file (a link, "
+                                  f"device or pipe); nothing was copied")
+            if rel not in listed and not any(rel.startswith(s) for s in streams):
+                raise OutputError(f"{flag} {folder}: {rel} was not written by the engine (not "
+                                  f"in its {MARKER}); nothing was copied: move it out first")
 
 
-def write_text_atomic(path: Path, text: str) -> None:
+def write_text_atomic(path: Path, text: str) -> Path:
     """Write ``text`` to a temporary name beside ``path`` and rename it into place.
 
     Parameters
@@ -457,11 +471,327 @@ def write_text_atomic(path: Path, text: str) -> None:
         File written.
     text : str
         Its whole content.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    return write_atomic(path, lambda tmp: Path(tmp).write_text(text))
+
+
+# ----------------------------------------------------------------------------
+# Output claims: the one rule of every command that writes files
+# ----------------------------------------------------------------------------
+def _command_of(marker: dict) -> str:
+    """The command that made a marked folder (a run folder's marker may not say: ``run``)."""
+    return marker.get("command", "run")
+
+
+def _writer_of(marker: dict, rel: str) -> str:
+    """The command that wrote the listed file ``rel`` of a marked folder."""
+    return marker.get("written_by", {}).get(rel, _command_of(marker))
+
+
+def _owning_folder(path: Path) -> Optional[Path]:
+    """The nearest folder at or above ``path`` (resolved) with the engine's marker."""
+    for folder in [path, *path.parents]:
+        if read_marker(folder) is not None:
+            return folder
+    return None
+
+
+def _refuse_place(out: Path, name: str) -> Path:
+    """Refusals shared by every output path: empty, a link, the current folder or one
+    holding it, a file on the way. Returns ``out`` resolved."""
+    if str(out) in ("", "."):
+        raise OutputError(f"{name}: is empty or the current folder; name a new folder")
+    if out.is_symlink():
+        raise OutputError(f"{name}: is a symbolic link (to {os.readlink(out)}); name the "
+                          f"folder itself")
+    resolved = out.resolve()
+    cwd = Path.cwd().resolve()
+    if resolved == cwd or resolved in cwd.parents:
+        raise OutputError(f"{name}: is the current folder or contains it; name a new folder")
+    for parent in resolved.parents:
+        if parent.exists() and not parent.is_dir():
+            raise OutputError(f"{name}: {parent} is a file, not a folder")
+    return resolved
+
+
+def _check_listed(owner: Path, marker: dict, folder: Path, names: Sequence[str],
+                  command: str, name: str) -> None:
+    """Each of ``names`` (in ``folder``, inside the marked ``owner``) is new, or a
+    regular file the marker lists as written by ``command``."""
+    for n in names:
+        path = folder / n
+        if not path.exists() and not path.is_symlink():
+            continue
+        rel = (folder.resolve() / n).relative_to(owner).as_posix()
+        if rel not in marker.get("files", []) or path.is_symlink() or not path.is_file():
+            raise OutputError(f"{name}: {path} exists and was not written by the engine; "
+                              f"nothing was changed: choose another place")
+        writer = _writer_of(marker, rel)
+        if writer != command:
+            raise OutputError(f"{name}: {path} was written by granular-chain {writer}, not "
+                              f"{command}; nothing was changed: choose another place")
+
+
+class Claim:
+    """Files one command may write into one folder, decided before any work.
+
+    Made by :func:`claim_folder` or :func:`claim_file` (which refuse what the
+    command must not write). Use as a context manager around the writing: on
+    entry a new folder is created with its marker, and the claimed names are
+    listed in the owning folder's marker as written by the command (before a
+    byte is written, so a killed command leaves files its next run may
+    replace); on exit the names not written are dropped from the listing and a
+    new folder left empty is removed again. Files are written whole to a
+    temporary name and renamed (:func:`write_atomic`, or :meth:`stage` then
+    :meth:`publish` for writers that name their own files).
+
+    Attributes
+    ----------
+    folder : Path
+        Where the files go.
+    names : tuple of str
+        The files, relative to ``folder``.
+    owner : Path or None
+        The marked folder whose marker lists them (None: a new file outside any).
+    command : str
+        The command writing (``figures``, ``plot``...), recorded in the marker.
+    """
+
+    def __init__(self, folder: Path, names: Sequence[str], owner: Optional[Path],
+                 command: str, new_marker: bool):
+        self.folder, self.names, self.owner = Path(folder), tuple(names), owner
+        self.command, self._new_marker = command, new_marker
+        self._made: list[Path] = []
+        self._stage: Optional[Path] = None
+
+    def __enter__(self) -> "Claim":
+        self._made = [p for p in [self.folder, *self.folder.parents] if not p.exists()]
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            if self._new_marker:
+                data = {"engine": ENGINE, "version": _version(), "command": self.command,
+                        "complete": False, "reason": "writing", "pid": os.getpid(),
+                        "files": []}
+                write_text_atomic(self.folder / MARKER, json.dumps(data, indent=2) + "\n")
+        except OSError as exc:
+            raise OutputError(f"{self.folder}: cannot be written ({exc.strerror or exc})") \
+                from None
+        self._list(keep=lambda p: True)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._stage is not None:
+            shutil.rmtree(self._stage, ignore_errors=True)
+        self._list(keep=lambda p: p.is_file(), complete=True)
+        if self._new_marker and not any(p.is_file() for p in self.paths):
+            (self.folder / MARKER).unlink(missing_ok=True)
+        for folder in self._made:  # deepest first: only those this claim created, if empty
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+
+    @property
+    def paths(self) -> list[Path]:
+        """The claimed files, as paths."""
+        return [self.folder / n for n in self.names]
+
+    def _list(self, keep, complete: bool = False) -> None:
+        """List the claimed names that pass ``keep`` in the owner's marker (the
+        others are dropped), as written by this command."""
+        marker = read_marker(self.owner) if self.owner is not None else None
+        if marker is None:
+            return
+        here = self.folder.resolve()
+        rels = {(here / n).relative_to(self.owner).as_posix(): p
+                for n, p in zip(self.names, self.paths)}
+        files = set(marker.get("files", [])) - set(rels)
+        files |= {r for r, p in rels.items() if keep(p)}
+        marker["files"] = sorted(files)
+        if _command_of(marker) != self.command:
+            written = {k: v for k, v in marker.get("written_by", {}).items() if k in files}
+            written.update({r: self.command for r in rels if r in files})
+            marker["written_by"] = dict(sorted(written.items()))
+        if complete and self._new_marker:
+            marker.update(complete=True, reason="")
+        write_text_atomic(self.owner / MARKER, json.dumps(marker, indent=2) + "\n")
+
+    def stage(self) -> Path:
+        """A hidden temporary folder inside :attr:`folder` for writers that name their
+        own files; :meth:`publish` renames them into place."""
+        if self._stage is None:
+            self._stage = Path(tempfile.mkdtemp(prefix=f".{self.command}.tmp-",
+                                                dir=self.folder))
+        return self._stage
+
+    def publish(self) -> list[Path]:
+        """Rename every claimed file written into :meth:`stage` into place.
+
+        Returns
+        -------
+        list of Path
+            The files published.
+        """
+        done = []
+        for n, path in zip(self.names, self.paths):
+            staged = self.stage() / n
+            if staged.is_file():
+                os.replace(staged, path)
+                done.append(path)
+        return done
+
+
+def claim_folder(out, command: str, names: Sequence[str], *, flag: str = "--out",
+                 home: Optional[Path] = None) -> Claim:
+    """Decide, before any work, whether ``command`` may write ``names`` into ``out``.
+
+    ``out`` may be a new folder (created and marked as the command's), or a
+    folder the engine marked for the same command holding nothing its marker
+    does not list (its files are then replaced), or a folder inside ``home``, the
+    run folder the command reads (its files join that run's marker, as written
+    by the command, and replace only files the command wrote there). A folder
+    the engine did not mark, one another command made, a link, a file, the
+    current folder and any folder inside another marked folder are refused.
+
+    Parameters
+    ----------
+    out : str or Path
+        The folder asked for.
+    command : str
+        The command writing (recorded in the marker).
+    names : sequence of str
+        The files it will write, relative to ``out``.
+    flag : str
+        The flag or argument that chose ``out``, for the message.
+    home : Path, optional
+        The run folder the command reads (``plot``, ``export``).
+
+    Returns
+    -------
+    Claim
+        Use as a context manager around the writing.
+
+    Raises
+    ------
+    OutputError
+        ``out`` must not be written (one line; nothing was changed).
+    """
+    out = Path(out)
+    name = f"{flag} {out}"
+    resolved = _refuse_place(out, name)
+    if resolved.exists() and not resolved.is_dir():
+        raise OutputError(f"{name}: is a file, not a folder; nothing was changed")
+    owner = _owning_folder(resolved)
+    if owner is None:
+        if resolved.exists():
+            what = "an empty folder" if not any(resolved.iterdir()) else "a folder"
+            raise OutputError(f"{name}: exists and is {what} the engine did not write (no "
+                              f"{MARKER}); nothing was changed: name a new folder")
+        return Claim(out, names, resolved, command, new_marker=True)
+    marker = read_marker(owner)
+    if home is not None and owner == Path(home).resolve():
+        _check_listed(owner, marker, out, names, command, name)
+        return Claim(out, names, owner, command, new_marker=False)
+    made_by = _command_of(marker)
+    if owner != resolved:
+        raise OutputError(f"{name}: is inside {owner}, a folder of granular-chain {made_by}; "
+                          f"nothing was changed: name a folder outside it")
+    if made_by != command:
+        raise OutputError(f"{name}: holds the output of granular-chain {made_by}; nothing "
+                          f"was changed: name a new folder")
+    foreign = _foreign_files(owner, marker)
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise OutputError(f"{name}: {foreign[0]}{more} was not written by the engine; "
+                          f"nothing was changed: move it out of the folder, or name a new one")
+    _check_listed(owner, marker, out, names, command, name)
+    return Claim(out, names, owner, command, new_marker=False)
+
+
+def claim_file(path, command: str, *, flag: str = "--out",
+               home: Optional[Path] = None) -> Claim:
+    """Decide, before any work, whether ``command`` may write the file ``path``.
+
+    ``path`` may be a new file outside any marked folder, or a file inside
+    ``home`` (the run folder the command reads; the file joins its marker as
+    written by the command) that is new or that the command wrote there
+    before. A file the engine did not write, one another command wrote (a
+    run's ``trajectory.h5``), a link and any file inside another marked folder
+    are refused.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file asked for (its folder must exist).
+    command : str
+        The command writing (recorded in the marker).
+    flag : str
+        The flag that chose ``path``, for the message.
+    home : Path, optional
+        The run folder the command reads (``diagnose RUN_DIR``).
+
+    Returns
+    -------
+    Claim
+        Use as a context manager around the writing; the file is ``claim.paths[0]``.
+
+    Raises
+    ------
+    OutputError
+        ``path`` must not be written (one line; nothing was changed).
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    name = f"{flag} {path}"
+    if str(path) == "":
+        raise OutputError(f"{name}: is empty; name a new file")
+    if path.is_symlink():
+        raise OutputError(f"{name}: is a symbolic link (to {os.readlink(path)}); name a "
+                          f"new file")
+    if path.is_dir():
+        raise OutputError(f"{name}: is a folder; name a new file")
+    parent = path.parent.resolve()
+    if not parent.is_dir():
+        raise OutputError(f"{name}: the folder {path.parent} does not exist")
+    owner = _owning_folder(parent)
+    if owner is None:
+        if path.exists():
+            raise OutputError(f"{name}: {path} exists and was not written by the engine; "
+                              f"nothing was changed: choose another place")
+        return Claim(path.parent, [path.name], None, command, new_marker=False)
+    if home is None or owner != Path(home).resolve():
+        raise OutputError(f"{name}: is inside {owner}, a folder of granular-chain "
+                          f"{_command_of(read_marker(owner))}; nothing was changed: choose "
+                          f"another place")
+    _check_listed(owner, read_marker(owner), path.parent, [path.name], command, name)
+    return Claim(path.parent, [path.name], owner, command, new_marker=False)
+
+
+def write_atomic(path: Path, write) -> Path:
+    """Call ``write(tmp)`` to write a temporary name beside ``path``, then rename it
+    into place: ``path`` is whole at every moment.
+
+    Parameters
+    ----------
+    path : Path
+        File written.
+    write : callable
+        Writes the whole file to the path it is given.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}{path.suffix}")
     try:
-        tmp.write_text(text)
+        write(tmp)
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+    return path

@@ -34,7 +34,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    metavar="dotted.path=value", help="override a scene field (scene only)")
     p.add_argument("--first", type=int, default=3,
                    help="backscatter: the first this many granules (default 3)")
-    p.add_argument("--out", default=None, help="also write the JSON to this file")
+    p.add_argument("--out", default=None,
+                   help="also write the JSON to this file: a new one, or one diagnose wrote "
+                   "inside RUN_DIR (it joins the run's run.json)")
     return p
 
 
@@ -51,13 +53,14 @@ def run(args) -> int:
     int
         The exit status.
     """
-    from ..rundir import OutputError, check_new_files, write_text_atomic
+    from ..rundir import OutputError, claim_file, write_text_atomic
     from ..scene import SceneError, load_scene
 
     target = Path(args.target)
+    claim = None
     try:
-        if args.out:
-            check_new_files([Path(args.out)], "--out")
+        if args.out is not None:  # a new file, or one diagnose wrote in the run it reads
+            claim = claim_file(args.out, "diagnose", home=target if target.is_dir() else None)
         if target.is_dir():
             if not (target / "trajectory.h5").is_file():
                 print(f"granular-chain: {target}: no trajectory.h5 (run with trajectory on)",
@@ -88,6 +91,11 @@ def run(args) -> int:
     summary = summarize(result, scene, first=args.first)
     text = json.dumps(summary, indent=2)
     print(text)
-    if args.out:
-        write_text_atomic(Path(args.out), text + "\n")
+    if claim is not None:
+        try:
+            with claim:
+                write_text_atomic(claim.paths[0], text + "\n")
+        except OutputError as exc:
+            print(f"granular-chain: {exc}", file=sys.stderr)
+            return 2
     return 0 if result.success else 1

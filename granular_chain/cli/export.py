@@ -28,7 +28,7 @@ def add_parser(subparsers):
         "meshio writes from points and lines (vtu, vtk, med, gmsh, ...).")
     p.add_argument("run_dir", metavar="RUN_DIR")
     p.add_argument("--format", dest="fmt", default="xdmf", help="xdmf (default), vtu, vtk, ...")
-    p.add_argument("--out", default=None, help="a new folder (default RUN_DIR/export/FORMAT)")
+    p.add_argument("--out", default=None, help="a new folder, or one export wrote (default RUN_DIR/export/FORMAT)")
     return p
 
 
@@ -48,7 +48,7 @@ def run(args) -> int:
     import sys
 
     from ..readback import read_run, run_model
-    from ..rundir import OutputError, adopt_files, check_new_files
+    from ..rundir import OutputError, claim_folder
 
     def fail(message: str) -> int:
         print(f"granular-chain: {message}", file=sys.stderr)
@@ -66,23 +66,20 @@ def run(args) -> int:
         return fail(f"--format: {args.fmt!r} is not a format meshio writes (known: xdmf, "
                     f"{', '.join(sorted(meshio._helpers._writer_map))})")
     out = Path(args.out) if args.out else run_dir / "export" / fmt
-    if args.out and out.exists():
-        return fail(f"--out {out}: exists; name a new folder")
     try:
         result = read_run(run_dir)
     except (OSError, ValueError) as exc:
         return fail(f"{run_dir}: cannot be read ({exc})")
     model = run_model(result)
-    try:
-        names = ["run.xdmf", "run.h5"] if fmt == "xdmf" else [
-            f"frame_{q:06d}.{fmt}" for q in range(result.t.size)]
-        check_new_files([out / n for n in names], "--out" if args.out else "RUN_DIR")
+    names = ["run.xdmf", "run.h5"] if fmt == "xdmf" else [
+        f"frame_{q:06d}.{fmt}" for q in range(result.t.size)]
+    try:  # a new folder, one export wrote, or inside RUN_DIR (the files join its run.json)
+        claim = claim_folder(out, "export", names, flag="--out" if args.out else "RUN_DIR",
+                             home=run_dir)
+        with claim:  # written whole into a hidden folder, then renamed into place
+            export_run(result, model, claim.stage(), fmt)
+            paths = claim.publish()
     except OutputError as exc:
         return fail(str(exc))
-    try:
-        paths = export_run(result, model, out, fmt)
-    finally:  # the files written so far, even if stopped, join the run's marker
-        if not args.out:
-            adopt_files(run_dir, [out / n for n in names if (out / n).is_file()])
     print(f"wrote {len(paths)} file(s) to {out}/")
     return 0

@@ -17,7 +17,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain figures`` (announces a first compilation).
+    """Entry point of ``granular-chain figures`` (announces a first compilation
+    once its arguments and --out are accepted).
 
     Parameters
     ----------
@@ -31,5 +32,5 @@ def run(args) -> int:
     """
     from ..paper.figures import run_figures_command
     from ..warmup import announce_compilation
-    announce_compilation("event")  # the collisions run on the event stepper
-    return run_figures_command(args)
+    # the collisions run on the event stepper; said once the arguments are accepted
+    return run_figures_command(args, announce=lambda: announce_compilation("event"))

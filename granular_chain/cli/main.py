@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import importlib
 
-from .exit_codes import EXIT_BAD_INPUT
+from .exit_codes import EXIT_BAD_INPUT, fail
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -66,4 +66,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if args.command not in COMMANDS:
         return EXIT_BAD_INPUT  # argparse already refused unknown commands
+    if getattr(args, "out", None) is not None and not str(args.out).strip():
+        # an empty --out would fall back to a default place: say so instead
+        return fail("--out: is empty; name a new folder (or file, for diagnose)")
     return _command(args.command).run(args)

@@ -25,7 +25,8 @@ def add_parser(subparsers) -> None:
     plot.add_argument("--no-render", dest="render", action="store_false",
                       help="skip frame.png (the pyvista off-screen rendering)")
     plot.add_argument("--out", default=None,
-                      help="folder for the PNGs (default RUN_DIR/plots)")
+                      help="a new folder for the PNGs, or one plot wrote (default "
+                      "RUN_DIR/plots)")
 
 
 def run(args) -> int:
@@ -52,9 +53,18 @@ def run(args) -> int:
         except ValueError:
             return fail(f"--granules: {args.granules!r} is not a comma-separated list of "
                         f"granule indices")
+    from ..rundir import OutputError, claim_folder
     from ..writers.plots import PLOT_DIR, write_plots
     from ..writers.trajectory import read_trajectory
 
+    # --out names the PNG folder itself; by default they go to RUN_DIR/plots/.
+    folder = Path(args.out) if args.out else run_dir / PLOT_DIR
+    names = ("spacetime.png", "energy.png", "velocities.png", "frame.png")
+    try:  # a new folder, one plot wrote, or inside RUN_DIR (the PNGs join its run.json)
+        claim = claim_folder(folder, "plot", names, flag="--out" if args.out else "RUN_DIR",
+                             home=run_dir)
+    except OutputError as exc:
+        return fail(str(exc))
     try:
         result, scene = read_trajectory(run_dir)
     except (OSError, ValueError) as exc:
@@ -62,20 +72,12 @@ def run(args) -> int:
     count = result.x.shape[1]
     if granules is not None and any(not 0 <= g < count for g in granules):
         return fail(f"--granules: indices must be in 0..{count - 1}, got {args.granules}")
-    from ..rundir import OutputError, adopt_files, check_new_files
-    # --out names the PNG folder itself; by default they go to RUN_DIR/plots/.
-    folder, subdir = (Path(args.out), "") if args.out else (run_dir, PLOT_DIR)
-    names = ("spacetime.png", "energy.png", "velocities.png", "frame.png")
     try:
-        check_new_files([folder / subdir / n for n in names], "--out" if args.out else "RUN_DIR")
+        with claim:
+            paths = write_plots(result, claim.folder, scene, granules=granules,
+                                frame_time=args.frame_time, render=args.render, subdir="")
     except OutputError as exc:
         return fail(str(exc))
-    try:
-        paths = write_plots(result, folder, scene, granules=granules,
-                            frame_time=args.frame_time, render=args.render, subdir=subdir)
-    finally:  # the PNGs written so far, even if stopped, join the run's marker
-        written = [folder / subdir / n for n in names if (folder / subdir / n).is_file()]
-        adopt_files(run_dir, [p for p in written if run_dir.resolve() in p.resolve().parents])
     for path in paths:
         print(path)
     return EXIT_OK

@@ -83,9 +83,11 @@ class _Attached:
         if out.csv:
             from ..writers.tables import EnergyTable
             self.writers.append(EnergyTable(folder, frames))
+        self.streams = []  # subfolders that gain a file a frame
         if out.vtk:
-            from ..writers.vtk import VTKFrames
+            from ..writers.vtk import FRAME_DIR, VTKFrames
             self.writers.append(VTKFrames(folder, model, resume_frames=frames))
+            self.streams.append(FRAME_DIR)
         path = folder / "thermo.csv"
         if run.stepper == "verlet":
             from ..simulate import step_plan
@@ -101,9 +103,10 @@ class _Attached:
         # Plots without a trajectory to read back need the frames in memory.
         self.keep_frames = out.plots and not out.trajectory
 
-    def checkpoint(self, folder: Path, scene):
+    def checkpoint(self, folder: Path, scene, noted=None):
         """The callback that saves a run's checkpoint with what the writers need to
-        reopen their files at it (frames written, thermo lines)."""
+        reopen their files at it (frames written, thermo lines), then calls
+        ``noted(streams)`` (the run folder lists its files for --restart)."""
         from ..checkpoint import save_checkpoint
 
         def save(state: dict) -> None:
@@ -113,6 +116,8 @@ class _Attached:
             state["thermo_lines"] = self.thermo.lines
             state["thermo_last_t"] = float(self.thermo._last_t)
             save_checkpoint(folder, state, scene)
+            if noted is not None:
+                noted(self.streams)
 
         return save
 
@@ -268,7 +273,7 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                     result = simulate(
                         scene, progress=False, writers=attached.writers,
                         keep_frames=attached.keep_frames, thermo=attached.thermo,
-                        checkpoint=attached.checkpoint(folder.tmp, scene),
+                        checkpoint=attached.checkpoint(folder.tmp, scene, folder.note_files),
                         resume=resume)
                 except BaseException:
                     attached.abandon()

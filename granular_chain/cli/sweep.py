@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from ..rundir import OutputError, claim_folder
 from ..sweep import PointOptions, SweepError, parse_grid, parse_list, plot_heatmap, run_sweep
 from ..sweep.heatmap import slug
 
@@ -42,7 +43,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes")
     p.add_argument("--serial", action="store_true", help="no dask: run in this process")
     p.add_argument("--batch-size", type=int, default=None, help="points per dask task")
-    p.add_argument("--out", default=None, help="folder (default outputs/sweeps/<scene stem>)")
+    p.add_argument("--out", default=None,
+                   help="a new folder, or one an earlier sweep wrote, to resume it "
+                   "(default outputs/sweeps/<scene stem>)")
     p.add_argument("--quantity", action="append", default=[], metavar="NAME",
                    help="heat map of this column (2-D sweeps; repeatable)")
     p.add_argument("--mask", action="append", default=[], metavar="COLUMN=VALUE",
@@ -100,13 +103,14 @@ def run(args) -> int:
         if len(axes) != 2:
             print("granular-chain: heat maps need exactly two axes", file=sys.stderr)
             return 2
-        for q in args.quantity:
-            try:
-                png = plot_heatmap(stats.results, axes[0].path, axes[1].path, q,
-                                   out / f"heatmap_{slug(q)}.png", mask=mask or None)
-            except SweepError as exc:
-                print(f"granular-chain: {exc}", file=sys.stderr)
-                return 2
-            if not args.quiet:
-                print(png)
+        try:  # the sweep's own folder, claimed like its results
+            with claim_folder(out, "sweep", [f"heatmap_{slug(q)}.png" for q in args.quantity]):
+                for q in args.quantity:
+                    png = plot_heatmap(stats.results, axes[0].path, axes[1].path, q,
+                                       out / f"heatmap_{slug(q)}.png", mask=mask or None)
+                    if not args.quiet:
+                        print(png)
+        except (SweepError, OutputError) as exc:
+            print(f"granular-chain: {exc}", file=sys.stderr)
+            return 2
     return 0

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 import time
 from pathlib import Path
@@ -166,12 +165,11 @@ def _plt():
 
 
 def _save(fig, out: Path, name: str) -> Path:
+    from ..rundir import write_atomic
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    path = out / f"paper_{name}.png"
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=130, bbox_inches="tight")
-    os.replace(tmp, path)
+    path = write_atomic(out / f"paper_{name}.png",
+                        lambda tmp: fig.savefig(tmp, dpi=130, bbox_inches="tight"))
     _plt().close(fig)
     return path
 
@@ -644,7 +642,9 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
         description="Redraw the figures of Rosas, Buceta and Lindenberg, 'Dynamics of Two "
                     "Granules', from the event stepper, closed forms overlaid; writes "
                     "OUT/paper_<name>.png and prints the time each figure takes.")
-    p.add_argument("--out", required=True, type=Path, help="output directory (created)")
+    p.add_argument("--out", required=True,
+                   help="a new folder (created and marked), or one an earlier figures "
+                   "command wrote")
     p.add_argument("--only", default=None,
                    help=f"comma-separated subset of: {','.join(FIGURES)}")
     p.add_argument("--grid", type=int, default=100,
@@ -654,29 +654,42 @@ def add_figures_parser(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def run_figures_command(args) -> int:
+def run_figures_command(args, announce=None) -> int:
     """Run ``granular-chain figures``; returns the exit status.
 
     Parameters
     ----------
     args : argparse.Namespace
         Parsed ``--out``, ``--only``, ``--grid``, ``--processes``.
+    announce : callable, optional
+        Called once the arguments and ``--out`` are accepted, before any figure.
 
     Returns
     -------
     int
         0 on success, 2 on a bad argument.
     """
+    from ..cli.exit_codes import fail
+    from ..rundir import OutputError, claim_folder
+
     only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
     if args.grid < 2 or args.processes < 1:
-        print("error: --grid must be >= 2 and --processes >= 1", file=sys.stderr)
-        return 2
+        return fail("--grid must be >= 2 and --processes >= 1")
+    unknown = [n for n in only or () if n not in FIGURES]
+    if unknown:
+        return fail(f"--only: unknown figure(s) {unknown}; choose from {list(FIGURES)}")
+    try:  # decided before any figure is drawn
+        claim = claim_folder(args.out, "figures", [f"paper_{n}.png" for n in only or FIGURES])
+    except OutputError as exc:
+        return fail(str(exc))
+    if announce is not None:
+        announce()
+    t = time.perf_counter()
     try:
-        t = time.perf_counter()
-        make_figures(args.out, only=only, grid=args.grid, processes=args.processes)
-    except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        with claim:
+            make_figures(claim.folder, only=only, grid=args.grid, processes=args.processes)
+    except OutputError as exc:
+        return fail(str(exc))
     print(f"total {time.perf_counter() - t:.2f} s")
     return 0
 

@@ -115,9 +115,10 @@ def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional
     ax.set_ylabel(y)
     ax.set_title(title or (quantity + (f"  (where {mask})" if mask else "")), fontsize=8)
     fig.tight_layout()
+    from ..rundir import write_atomic
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    write_atomic(path, fig.savefig)
     plt.close(fig)
     return path
 

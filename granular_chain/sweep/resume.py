@@ -15,8 +15,7 @@ import numpy as np
 
 from .grid import Axis, SweepError
 
-__all__ = ["open_results", "read_results", "check_sweep_folder", "scene_text_hash",
-           "read_done"]
+__all__ = ["open_results", "read_results", "scene_text_hash", "read_done"]
 
 #: The sweep.json entries a resumed sweep must share with the one that wrote the rows.
 _SAME_AS_BEFORE = ("scene_sha256", "fixed", "frames", "first")
@@ -38,34 +37,6 @@ def scene_text_hash(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def check_sweep_folder(out_dir: Path) -> None:
-    """A sweep writes into a new or empty folder, or resumes one holding its own
-    sweep.json; any other folder is the user's and is refused (nothing changed).
-
-    Parameters
-    ----------
-    out_dir : Path
-        The sweep's folder.
-
-    Raises
-    ------
-    SweepError
-        The folder is not the sweep's to write.
-    """
-    if out_dir.is_symlink() or (out_dir.exists() and not out_dir.is_dir()):
-        raise SweepError(f"--out {out_dir}: is not a folder")
-    if not out_dir.exists() or not any(out_dir.iterdir()):
-        return
-    try:
-        meta = json.loads((out_dir / "sweep.json").read_text())
-    except (OSError, ValueError):
-        meta = None
-    if not isinstance(meta, dict) or "scene_sha256" not in meta:
-        raise SweepError(f"--out {out_dir}: exists and is not a sweep folder (no sweep.json "
-                         f"written by granular-chain sweep); nothing was changed: name a new "
-                         f"folder")
-
-
 def open_results(out_dir: Path, meta: dict, axes: Sequence[Axis], header: list[str],
                  restart: bool) -> tuple[Path, set]:
     """Prepare ``out_dir`` for a sweep: ``(results.csv path, coordinates already done)``.
@@ -73,7 +44,9 @@ def open_results(out_dir: Path, meta: dict, axes: Sequence[Axis], header: list[s
     Parameters
     ----------
     out_dir : Path
-        The sweep's folder (created if need be; see :func:`check_sweep_folder`).
+        The sweep's folder: a new one (created and marked as the sweep's), or one
+        an earlier sweep wrote holding nothing else
+        (:func:`granular_chain.rundir.claim_folder`); any other is refused.
     meta : dict
         What the rows are made from (scene hash, fixed overrides, options): a
         results.csv made from something else is refused; written to sweep.json
@@ -90,22 +63,27 @@ def open_results(out_dir: Path, meta: dict, axes: Sequence[Axis], header: list[s
     (Path, set of tuple)
         results.csv and the coordinates (as text) already in it.
     """
-    check_sweep_folder(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    from ..rundir import OutputError, claim_folder, write_text_atomic
+    try:
+        claim = claim_folder(out_dir, "sweep", ["results.csv", "sweep.json"])
+    except OutputError as exc:
+        raise SweepError(str(exc)) from None
     results = out_dir / "results.csv"
     meta_path = out_dir / "sweep.json"
-    if restart and results.exists():
-        results.unlink()
-    if results.exists() and meta_path.exists():
-        old = json.loads(meta_path.read_text())
-        for key in _SAME_AS_BEFORE:
-            if old.get(key) != meta[key]:
-                raise SweepError(
-                    f"{results} was made with a different {key} ({old.get(key)!r}, now "
-                    f"{meta[key]!r}); use another --out, or --restart to discard it")
-    done = read_done(results, header, [a.path for a in axes])
-    meta = {**meta, "axes": [a.spec for a in axes]}
-    meta_path.write_text(json.dumps(meta, indent=2) + "\n")
+    with claim:  # both files listed in the folder's run.json: a rerun may append, resume
+        if restart and results.exists():
+            results.unlink()
+        if results.exists() and meta_path.exists():
+            old = json.loads(meta_path.read_text())
+            for key in _SAME_AS_BEFORE:
+                if old.get(key) != meta[key]:
+                    raise SweepError(
+                        f"{results} was made with a different {key} ({old.get(key)!r}, now "
+                        f"{meta[key]!r}); use another --out, or --restart to discard it")
+        done = read_done(results, header, [a.path for a in axes])
+        meta = {**meta, "axes": [a.spec for a in axes]}
+        write_text_atomic(meta_path, json.dumps(meta, indent=2) + "\n")
+        results.touch()  # (rows are appended as batches finish)
     return results, done
 
 

@@ -546,13 +546,16 @@ def _table(res: Boundaries) -> str:
     return "\n".join(rows)
 
 
-def run_boundaries_command(args) -> int:
+def run_boundaries_command(args, announce=None) -> int:
     """Entry point of ``granular-chain boundaries``: 0 ok, 2 bad input.
 
     Parameters
     ----------
     args : argparse.Namespace
         Parsed arguments of ``granular-chain boundaries``.
+    announce : callable, optional
+        Called once the arguments (and a 2-D ``--out``) are accepted, before any
+        collision.
 
     Returns
     -------
@@ -576,7 +579,9 @@ def run_boundaries_command(args) -> int:
         if args.grid < 2 or not 0 < args.tol < 1:
             raise _BadInput("--grid must be >= 2 and --tol in (0, 1)")
         if args.y_param is not None:
-            return _run_plane(args, fixed, opts)
+            return _run_plane(args, fixed, opts, announce)
+        if announce is not None:
+            announce()
         res = find_boundaries(args.param, lo, hi, fixed, args.tol, grid=args.grid, by=args.by,
                               rtol=opts.get("rtol"), t_max=opts.get("t_max", 1000.0))
     except (_BadInput, ValueError) as exc:
@@ -586,7 +591,7 @@ def run_boundaries_command(args) -> int:
     return 0
 
 
-def _run_plane(args, fixed, opts) -> int:
+def _run_plane(args, fixed, opts, announce=None) -> int:
     if args.y_range is None or args.out is None:
         raise _BadInput("--y-param needs --y-range LO HI and --out FOLDER")
     if args.y_param not in PARAMS or "n" in (args.param, args.y_param):
@@ -597,14 +602,23 @@ def _run_plane(args, fixed, opts) -> int:
     for k in (args.y_param,) + ((args.y_param + "1", args.y_param + "2")
                                 if args.y_param in ("eta", "gamma") else ()):
         fixed.pop(k, None)
+    from ..rundir import OutputError, claim_folder
     from .curves import plot_curves, trace_curves, write_curves
+    try:  # decided before any collision is run
+        claim = claim_folder(args.out, "boundaries", [f"boundaries_curves.{ext}"
+                                                      for ext in ("csv", "json", "png")])
+    except OutputError as exc:
+        raise _BadInput(str(exc)) from None
+    if announce is not None:
+        announce()
     curves = trace_curves((args.param, args.y_param), box, fixed, args.tol,
                           t_max=opts.get("t_max", 1000.0), rtol=opts.get("rtol"),
                           executor="dask" if args.dask else "serial")
-    from pathlib import Path
-    paths = write_curves(curves, Path(args.out)) if curves else []
-    if curves:
-        paths.append(plot_curves(curves, Path(args.out) / "boundaries_curves.png", box, fixed))
+    with claim:
+        paths = write_curves(curves, claim.folder) if curves else []
+        if curves:
+            paths.append(plot_curves(curves, claim.folder / "boundaries_curves.png", box,
+                                     fixed))
     summary = {"curves": [{k: v for k, v in c.to_dict().items() if k not in ("points", "normals")}
                           | {"points": len(c.points)} for c in curves],
                "files": [str(p) for p in paths]}

@@ -392,8 +392,10 @@ def write_curves(curves, folder, stem: str = "boundaries") -> list:
     for i, c in enumerate(curves):
         for p, nv in zip(c.points, c.normals):
             lines.append(f"{i},{p[0]!r},{p[1]!r},{nv[0]!r},{nv[1]!r},{c.below},{c.above}")
-    csv_path.write_text("\n".join(lines) + "\n")
-    json_path.write_text(json.dumps({"curves": [c.to_dict() for c in curves]}, indent=1) + "\n")
+    from ..rundir import write_text_atomic
+    write_text_atomic(csv_path, "\n".join(lines) + "\n")
+    write_text_atomic(json_path, json.dumps({"curves": [c.to_dict() for c in curves]},
+                                            indent=1) + "\n")
     return [csv_path, json_path]
 
 
@@ -453,6 +455,7 @@ def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str
     ax.set_ylabel(tex_name(yn))
     ax.set_title(title or f"outcome boundaries, $n = {v['n']:g}$")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from ..rundir import write_atomic
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
     return path
