@@ -106,6 +106,8 @@ def plan_restart(args, scene) -> RestartPlan:
                           f"from outside the run folder")
     if args.out:
         raise OutputError("--restart: the run goes on in RUN_DIR's place; leave out --out")
+    if source.is_symlink():
+        raise OutputError(f"--restart {source}: is a symbolic link; name the folder itself")
     marker = read_marker(source)
     if marker is None:
         raise OutputError(f"--restart {source}: not a run folder of the engine (no {MARKER})")
@@ -114,6 +116,8 @@ def plan_restart(args, scene) -> RestartPlan:
     partial = ".partial-" in source.name
     if partial and _pid_alive(marker.get("pid")):
         raise OutputError(f"--restart {source}: the run is still going (process {marker['pid']})")
+    # every file copied must be one the run wrote: listed, and a regular file
+    check_partial(source, {**marker, "files": [*marker.get("files", []), CHECKPOINT]})
     if not (source / CHECKPOINT).is_file():
         raise OutputError(f"--restart {source}: has no {CHECKPOINT} (a run writes one when "
                           f"interrupted, and every output.checkpoint_every steps)")
@@ -127,8 +131,6 @@ def plan_restart(args, scene) -> RestartPlan:
     if scene.output.plots and not scene.output.trajectory:
         raise OutputError(f"--restart {source}: the plots of a continued run are drawn from "
                           f"its trajectory.h5; this run writes none (output.trajectory: false)")
-    # every file copied must be one the run wrote: listed, and a regular file
-    check_partial(source, {**marker, "files": [*marker.get("files", []), CHECKPOINT]})
     if not partial:
         return RestartPlan(source, source, False)
     out = Path(marker.get("destination") or source.with_name(source.name.split(".partial-")[0][1:]))

@@ -66,6 +66,11 @@ def run(args) -> int:
         return fail(f"--format: {args.fmt!r} is not a format meshio writes (known: xdmf, "
                     f"{', '.join(sorted(meshio._helpers._writer_map))})")
     out = Path(args.out) if args.out else run_dir / "export" / fmt
+    where = {"flag": "--out" if args.out else "RUN_DIR", "home": run_dir}
+    try:  # a new folder, one export wrote, or inside RUN_DIR (the files join its run.json)
+        claim_folder(out, "export", [], **where)  # the folder, before the run is read
+    except OutputError as exc:
+        return fail(str(exc))
     try:
         result = read_run(run_dir)
     except (OSError, ValueError) as exc:
@@ -73,9 +78,8 @@ def run(args) -> int:
     model = run_model(result)
     names = ["run.xdmf", "run.h5"] if fmt == "xdmf" else [
         f"frame_{q:06d}.{fmt}" for q in range(result.t.size)]
-    try:  # a new folder, one export wrote, or inside RUN_DIR (the files join its run.json)
-        claim = claim_folder(out, "export", names, flag="--out" if args.out else "RUN_DIR",
-                             home=run_dir)
+    try:  # and each file, now that their names are known
+        claim = claim_folder(out, "export", names, **where)
         with claim:  # written whole into a hidden folder, then renamed into place
             export_run(result, model, claim.stage(), fmt)
             paths = claim.publish()
