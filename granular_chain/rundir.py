@@ -550,16 +550,19 @@ class Claim:
     temporary name and renamed (:func:`write_atomic`, or :meth:`stage` then
     :meth:`publish` for writers that name their own files).
 
-    Attributes
+    Parameters
     ----------
     folder : Path
         Where the files go.
-    names : tuple of str
+    names : sequence of str
         The files, relative to ``folder``.
     owner : Path or None
-        The marked folder whose marker lists them (None: a new file outside any).
+        The marked folder (resolved) whose marker lists them (None: a new file
+        outside any marked folder).
     command : str
         The command writing (``figures``, ``plot``...), recorded in the marker.
+    new_marker : bool
+        ``folder`` is new: created and marked as the command's on entry.
     """
 
     def __init__(self, folder: Path, names: Sequence[str], owner: Optional[Path],
@@ -623,7 +626,13 @@ class Claim:
 
     def stage(self) -> Path:
         """A hidden temporary folder inside :attr:`folder` for writers that name their
-        own files; :meth:`publish` renames them into place."""
+        own files; :meth:`publish` renames them into place.
+
+        Returns
+        -------
+        Path
+            The temporary folder (removed when the claim ends).
+        """
         if self._stage is None:
             self._stage = Path(tempfile.mkdtemp(prefix=f".{self.command}.tmp-",
                                                 dir=self.folder))

@@ -43,13 +43,16 @@ def test_xdmf_time_series_reads_back_the_frames(tmp_path, monkeypatch):
 def test_vtu_one_file_a_frame_and_refusals(tmp_path, monkeypatch, capsys):
     result = _run(tmp_path, monkeypatch)
     assert main(["export", "r", "--format", "vtu", "--out", "vtu"]) == 0
-    files = sorted((tmp_path / "vtu").iterdir())
+    files = sorted(p for p in (tmp_path / "vtu").iterdir() if p.name != "run.json")
     assert len(files) == result.t.size
+    assert read_marker(tmp_path / "vtu")["command"] == "export"
     mesh = meshio.read(files[-1])
     assert np.array_equal(mesh.points[:, 0], result.x[-1])
     assert np.array_equal(mesh.point_data["net_force"], result.f[-1])
     capsys.readouterr()
-    assert main(["export", "r", "--format", "vtu", "--out", "vtu"]) == 2  # exists: refused
+    assert main(["export", "r", "--format", "vtu", "--out", "vtu"]) == 0  # its own folder
+    (tmp_path / "mine").mkdir()
+    assert main(["export", "r", "--format", "vtu", "--out", "mine"]) == 2  # the user's
     assert main(["export", "r", "--format", "nonsense"]) == 2
     assert main(["export", "missing"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -226,7 +226,7 @@ def test_sweep_refuses_a_user_folder(work, capsys):
     code = main(["sweep", "scene.yaml", "--grid", "run.t_end=0.1:0.2:2", "--serial",
                  "--out", "results", "--restart", "--quiet"])
     err = capsys.readouterr().err
-    assert code == 2 and "not a sweep folder" in err
+    assert code == 2 and "--out results" in err and "the engine did not write" in err
     assert snapshot(work) == before
 
 
@@ -245,7 +245,8 @@ def test_plot_refuses_user_pngs_and_plots_join_the_run(work, capsys):
     (work / "figs" / "energy.png").write_bytes(b"my figure")
     before = snapshot(work)
     code = main(["plot", "r", "--out", "figs", "--no-render"])
-    assert code == 2 and "figs/energy.png exists" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 2 and "--out figs" in err and "the engine did not write" in err
     assert snapshot(work) == before
     assert main(["plot", "r", "--no-render"]) == 0
     assert "plots/energy.png" in read_marker(work / "r")["files"]
