@@ -128,12 +128,12 @@ def test_interrupted_sweep_resumes_without_recomputing(tmp_path, counted):
 
 
 def test_row_cut_by_a_hard_kill_is_recomputed(tmp_path, counted):
-    sw.run_sweep(ETA_MAP, axes(), out_dir=tmp_path, executor="serial")
-    path = tmp_path / "results.csv"
+    sw.run_sweep(ETA_MAP, axes(), out_dir=tmp_path / "o", executor="serial")
+    path = tmp_path / "o" / "results.csv"
     text = path.read_text()
     path.write_text(text[: text.rstrip("\n").rfind("\n") + 1 + 25])  # last row half written
     counted["calls"] = 0
-    st = sw.run_sweep(ETA_MAP, axes(), out_dir=tmp_path, executor="serial")
+    st = sw.run_sweep(ETA_MAP, axes(), out_dir=tmp_path / "o", executor="serial")
     assert st.computed == 1 and counted["calls"] == 1
     assert len(rows(path)) == 12
 
@@ -170,7 +170,7 @@ def test_errors_become_rows_and_heat_maps_are_drawn(tmp_path):
     # eta2 = -0.1 is not a valid scene: that point is an 'error' row, the rest run.
     ax = [sw.parse_list("granules.friction.kinetic[1]=-0.1,0.0,0.3"),
           sw.parse_grid("granules.friction.kinetic[0]=0:0.2:3")]
-    st = sw.run_sweep(ETA_MAP, ax, out_dir=tmp_path, executor="serial")
+    st = sw.run_sweep(ETA_MAP, ax, out_dir=tmp_path / "o", executor="serial")
     rs = rows(st.results)
     bad = [r for r in rs if r["status"] == "error"]
     assert len(bad) == 3 and "kinetic" in bad[0]["message"]
