@@ -226,13 +226,14 @@ def test_restart_refuses_a_partial_folder_holding_an_unlisted_file(killed, work,
     assert not (work / "k").exists()
 
 
-# (never run on the code before the fix: it would copy /dev/zero or wait on the pipe)
+# (a link to /dev/null, not /dev/zero: code without the check copies it, and must not
+# fill the disk doing so)
 @pytest.mark.parametrize("special", ["device", "fifo"])
 def test_restart_refuses_a_partial_folder_holding_a_device_or_pipe(killed, work, capsys,
                                                                    special):
     if special == "device":
         (killed / "trajectory.h5").unlink()  # a listed name, replaced by a link to a device
-        (killed / "trajectory.h5").symlink_to("/dev/zero")
+        (killed / "trajectory.h5").symlink_to("/dev/null")
     else:
         os.mkfifo(killed / "thermo.csv.pipe")
     refused(capsys, ["run", "k.yaml", "--restart", killed.name, "--quiet"],
