@@ -116,11 +116,11 @@ def plan_restart(args, scene) -> RestartPlan:
     partial = ".partial-" in source.name
     if partial and _pid_alive(marker.get("pid")):
         raise OutputError(f"--restart {source}: the run is still going (process {marker['pid']})")
-    # every file copied must be one the run wrote: listed, and a regular file
-    check_partial(source, {**marker, "files": [*marker.get("files", []), CHECKPOINT]})
     if not (source / CHECKPOINT).is_file():
         raise OutputError(f"--restart {source}: has no {CHECKPOINT} (a run writes one when "
                           f"interrupted, and every output.checkpoint_every steps)")
+    # every file copied must be one the run wrote: listed, and a regular file
+    check_partial(source, {**marker, "files": [*marker.get("files", []), CHECKPOINT]})
     _, stored = load_checkpoint(source)
     differs = scene_difference(stored, scene.model_dump(mode="json"))
     if differs:
