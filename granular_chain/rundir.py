@@ -15,6 +15,12 @@ wrote into the folder. The rules, as rsync and git keep them:
   with the reason; a run that fails is removed. A temporary folder left by a
   hard kill (SIGKILL, power loss) carries its own incomplete marker and is
   removed by the next run to the same destination once its process is gone.
+- Every other command that writes files claims them first (:func:`claim_folder`,
+  :func:`claim_file`), before any work: a new folder, marked with the command's
+  name; a folder the same command marked, holding nothing its marker does not
+  list; or the run folder the command reads, whose marker records which command
+  wrote each file it adds. Nothing inside another marked folder, no link, no
+  file another command or the user wrote.
 """
 
 from __future__ import annotations
