@@ -20,7 +20,7 @@ import signal
 import threading
 from dataclasses import dataclass
 
-__all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "stop_signals"]
+__all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals"]
 
 #: The signals that stop a run cleanly (SIGHUP: the terminal was closed; absent on
 #: Windows).
@@ -59,6 +59,21 @@ class StopRequest:
     def exit_code(self) -> int:
         """The conventional exit status of a process ended by this signal (128 + N)."""
         return 128 + self.signum if self.signum else 0
+
+
+class Stopped(KeyboardInterrupt):
+    """Raised by a loop of many runs (the scan of ``boundaries``) between two runs once
+    a stop is asked for: its results so far are incomplete and are not used.
+
+    Parameters
+    ----------
+    signum : int
+        The signal that asked for the stop.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
 
 
 @contextlib.contextmanager

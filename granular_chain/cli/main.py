@@ -66,6 +66,29 @@ def main(argv=None) -> int:
         Exit status (see :mod:`granular_chain.cli.exit_codes`).
     """
     _drop_output_to_closed_pipes()
+    status = _main(argv)
+    if argv is None and status > 128:  # the process's own command, stopped by a signal
+        _exit_now(status)
+    return status
+
+
+def _exit_now(status: int) -> None:
+    """End the process at once, its files closed and its output flushed: the
+    interpreter's teardown (unloading the compiled kernels) can take seconds on a
+    loaded machine, and a user who asked the command to stop waits for it."""
+    import atexit
+
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(status)
+
+
+def _main(argv) -> int:
+    """Parse and dispatch; a stray signal or a MemoryError said in one line."""
     try:
         args = build_parser().parse_args(argv)
         if args.command not in COMMANDS:
