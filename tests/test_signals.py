@@ -32,6 +32,7 @@ VERLET = """\
 name: sig_verlet
 granules:
   count: 20
+  radius: 2.0
   velocity: {0: 1.0}
 walls:
   left: {gap: 0.0}
@@ -47,6 +48,7 @@ EVENT = """\
 name: sig_event
 granules:
   count: 6
+  radius: 2.0
   velocity: {0: 1.0}
 walls:
   left: {gap: 0.0}
@@ -69,7 +71,7 @@ def _commands(folder: Path) -> dict:
     """name -> (warm-up command, long command factory(trial folder))."""
     verlet_short, verlet_long = (_scene(folder, VERLET, t) for t in (10.0, 1e7))
     event_short, event_long = (_scene(folder, EVENT, t) for t in (10.0, 1e7))
-    sweep_short, sweep_long = (_scene(folder, VERLET, t) for t in (10.0, 2e4))
+    sweep_short, sweep_long = (_scene(folder, VERLET, t) for t in (10.0, 2e3))
     cli = [sys.executable, "-m", "granular_chain.cli"]
     return {
         "sweep --serial": (

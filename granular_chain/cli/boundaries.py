@@ -17,7 +17,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain boundaries`` (announces a first compilation).
+    """Entry point of ``granular-chain boundaries`` (announces a first compilation once
+    the arguments are accepted).
 
     Parameters
     ----------
@@ -27,9 +28,7 @@ def run(args) -> int:
     Returns
     -------
     int
-        Exit status: 0 ok, 2 bad input.
+        Exit status: 0 ok, 2 bad input, 128 + N stopped by signal N.
     """
     from ..two_granules.boundaries import run_boundaries_command
-    from ..warmup import announce_compilation
-    announce_compilation("event")  # the collisions run on the event stepper
     return run_boundaries_command(args)

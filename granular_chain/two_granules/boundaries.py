@@ -640,6 +640,8 @@ def run_boundaries_command(args) -> int:
         if args.grid < 2 or not 0 < args.tol < 1:
             raise _BadInput("--grid must be >= 2 and --tol in (0, 1)")
         check_grid(args.grid)
+        from ..warmup import announce_compilation
+        announce_compilation("event")  # the collisions run on the event stepper
         if args.y_param is not None:
             return _run_plane(args, fixed, opts)
         res = find_boundaries(args.param, lo, hi, fixed, args.tol, grid=args.grid, by=args.by,
