@@ -196,7 +196,8 @@ def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch)
 
 
 def test_memory_error_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch):
-    import granular_chain.simulate as simulate
+    import importlib
+    simulate = importlib.import_module("granular_chain.simulate")  # the module, not the function
 
     def no_memory(*args, **kwargs):
         raise MemoryError
