@@ -209,6 +209,9 @@ def _verlet_steps(scene, model) -> tuple[int, float]:
         dt = default_dt(model, t_end)
         how = (f" (the default dt: 1/200 of the shortest contact time "
                f"{model.shortest_period():.4g}, or less for dashpots or a driven wall)")
+    forced = _cadence_step(scene.output.dt, dt)
+    if forced < dt:
+        return _forced_steps(scene, dt, forced)
     ratio = t_end / dt
     if not ratio <= run.max_steps and (not run.stop_conditions or not ratio < 2 ** 62):
         raise _refuse("run.max_steps", (
@@ -217,6 +220,32 @@ def _verlet_steps(scene, model) -> tuple[int, float]:
             f"run.dt, or shorten run.t_end"))
     n_steps = min(steps_and_dt(t_end, dt)[0], run.max_steps)
     return n_steps, dt
+
+
+def _cadence_step(out_dt: Optional[float], dt: float) -> float:
+    """The step the Verlet driver takes so that frames fall on multiples of ``out_dt``
+    (``out_dt / ceil(out_dt / dt)``, as ``step_plan``); ``dt`` without output.dt."""
+    if out_dt is None:
+        return dt
+    per_frame = out_dt / dt
+    m = round(per_frame)
+    if m >= 1 and abs(m - per_frame) <= 1e-9 * per_frame:
+        return dt
+    return out_dt / math.ceil(per_frame)
+
+
+def _forced_steps(scene, dt: float, forced: float) -> tuple[int, float]:
+    """(steps, dt) of a run whose output.dt forces a step shorter than ``dt``; refuses
+    more steps than run.max_steps, naming output.dt."""
+    run = scene.run
+    ratio = run.t_end / forced
+    if not ratio <= run.max_steps and (not run.stop_conditions or not ratio < 2 ** 62):
+        raise _refuse("output.dt", (
+            f"{scene.output.dt:g} forces a step of {forced:.4g} (frames fall on its multiples; "
+            f"the step would be {dt:.4g}): reaching run.t_end = {run.t_end:g} takes "
+            f"{ratio:.4g} steps, more than run.max_steps = {run.max_steps}; raise output.dt "
+            f"or run.max_steps, or shorten run.t_end"))
+    return min(steps_and_dt(run.t_end, forced)[0], run.max_steps), forced
 
 
 def _check_time_resolution(scene, model) -> None:

@@ -45,8 +45,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = ["Uniform", "Normal", "LogNormal", "Distribution", "draw", "check_draw"]
 
-_Finite = Annotated[float, Field(allow_inf_nan=False)]
-_Seed = Annotated[int, Field(ge=0, description="Seed of numpy.random.default_rng.")]
+# strict: a number is a number (not true or "0.5"), a seed a whole number (not 7.0)
+_Finite = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+_Seed = Annotated[int, Field(strict=True, ge=0, description="Seed of numpy.random.default_rng.")]
 
 
 class _Recipe(BaseModel):
@@ -73,7 +74,7 @@ class Normal(_Recipe):
 
     distribution: Literal["normal"]
     mean: _Finite
-    std: Annotated[float, Field(gt=0, allow_inf_nan=False)]
+    std: Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
     seed: _Seed
 
 
@@ -81,8 +82,8 @@ class LogNormal(_Recipe):
     """Positive values whose logarithm is normal: exp(log(median) + sigma * Z)."""
 
     distribution: Literal["lognormal"]
-    median: Annotated[float, Field(gt=0, allow_inf_nan=False)]
-    sigma: Annotated[float, Field(gt=0, allow_inf_nan=False)]
+    median: Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
+    sigma: Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
     seed: _Seed
 
 

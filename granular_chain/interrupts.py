@@ -1,5 +1,5 @@
-"""Stopping a run cleanly: SIGINT (Ctrl-C) and SIGTERM become a request the
-drivers read between compiled chunks.
+"""Stopping a run cleanly: SIGINT (Ctrl-C), SIGTERM and SIGHUP (the terminal closed)
+become a request the drivers read between compiled chunks.
 
 Compiled kernels cannot be interrupted from inside; a Python signal handler
 only runs once the kernel has returned. So the drivers (Verlet and event
@@ -20,7 +20,12 @@ import signal
 import threading
 from dataclasses import dataclass
 
-__all__ = ["CHUNK_SECONDS", "StopRequest", "stop_signals"]
+__all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals"]
+
+#: The signals that stop a run cleanly (SIGHUP: the terminal was closed; absent on
+#: Windows).
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
+                     if hasattr(signal, name))
 
 #: Target wall time of one compiled chunk (seconds): small enough that a stop
 #: request is honoured well within one second, large enough that the Python
@@ -42,12 +47,12 @@ class StopRequest:
 
     @property
     def requested(self) -> bool:
-        """True once SIGINT or SIGTERM arrived."""
+        """True once SIGINT, SIGTERM or SIGHUP arrived."""
         return self.signum != 0
 
     @property
     def name(self) -> str:
-        """``SIGINT`` or ``SIGTERM`` (empty when no stop was asked for)."""
+        """``SIGINT``, ``SIGTERM`` or ``SIGHUP`` (empty when no stop was asked for)."""
         return signal.Signals(self.signum).name if self.signum else ""
 
     @property
@@ -56,9 +61,24 @@ class StopRequest:
         return 128 + self.signum if self.signum else 0
 
 
+class Stopped(KeyboardInterrupt):
+    """Raised by a loop of many runs (the scan of ``boundaries``) between two runs once
+    a stop is asked for: its results so far are incomplete and are not used.
+
+    Parameters
+    ----------
+    signum : int
+        The signal that asked for the stop.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
 @contextlib.contextmanager
 def stop_signals():
-    """While the block runs, SIGINT and SIGTERM set the yielded :class:`StopRequest`.
+    """While the block runs, SIGINT, SIGTERM and SIGHUP set the yielded :class:`StopRequest`.
 
     Outside the main thread (dask workers, threads) signals cannot be caught;
     the request then never fires and the default behaviour is kept. Handlers
@@ -86,7 +106,7 @@ def stop_signals():
         request.signum = signum
 
     handler.stop_request = request
-    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    previous = {s: signal.signal(s, handler) for s in STOP_SIGNALS}
     try:
         yield request
     finally:

@@ -79,6 +79,17 @@ class RestartPlan:
         remove_files(self.source, [*self._copied, MARKER])
 
 
+def _read_checkpoint(folder: Path) -> tuple[dict, dict]:
+    """:func:`load_checkpoint`, with a file that is not a whole checkpoint (truncated,
+    corrupted, from another program) refused as an :class:`OutputError`."""
+    try:
+        return load_checkpoint(folder)
+    except Exception as exc:  # zipfile, pickle, JSON and numpy errors alike: one line
+        problem = " ".join(str(exc).split()) or type(exc).__name__
+        raise OutputError(f"--restart {folder}: {CHECKPOINT} cannot be read, it is "
+                          f"truncated or corrupted ({problem})") from None
+
+
 def plan_restart(args, scene) -> RestartPlan:
     """Check ``--restart RUN_DIR`` against the scene (raises :class:`OutputError`).
 
@@ -121,7 +132,7 @@ def plan_restart(args, scene) -> RestartPlan:
                           f"interrupted, and every output.checkpoint_every steps)")
     # every file copied must be one the run wrote: listed, and a regular file
     check_partial(source, {**marker, "files": [*marker.get("files", []), CHECKPOINT]})
-    _, stored = load_checkpoint(source)
+    _, stored = _read_checkpoint(source)
     differs = scene_difference(stored, scene.model_dump(mode="json"))
     if differs:
         hint = (" (repeat the run's output flags: --csv, --vtk, --plots, --no-trajectory)"

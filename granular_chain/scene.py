@@ -27,6 +27,7 @@ from pydantic import (
     PrivateAttr,
     ValidationError,
     ValidationInfo,
+    field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
@@ -108,12 +109,23 @@ def _number(value):
     return value
 
 
+#: Largest whole number a count, index or cadence may be (2^53: exact as a double and
+#: as a 64-bit integer of the compiled kernels).
+MAX_WHOLE = 2 ** 53
+
+
 def _integer(value):
-    """Whole numbers only: not 3.0 or 1e9 (floats), booleans or strings."""
+    """Whole numbers only: not 3.0 or 1e9 (floats), booleans or strings; |value| <= 2^53."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise PydanticCustomError(
             "integer_type", "must be a whole number written without a decimal point or "
             "exponent (e.g. 1000000), not {kind}", {"kind": _kind(value)})
+    if abs(int(value)) > MAX_WHOLE:
+        digits = len(str(abs(int(value))))
+        raise PydanticCustomError(
+            "integer_size", "is a whole number of {digits} digits, above 2^53 = "
+            "9007199254740992, the largest count the engine represents exactly",
+            {"digits": digits})
     return int(value)
 
 
@@ -244,6 +256,26 @@ class Granules(_Strict):
         "walls keep their gaps to the end granules.")
     _x0: Optional[np.ndarray] = PrivateAttr(None)
     _v0: Optional[np.ndarray] = PrivateAttr(None)
+
+    @field_validator("velocity", mode="before")
+    @classmethod
+    def _each_index_once(cls, value):
+        """Refuse a sparse velocity giving one granule twice (``{0: 1.0, "0": 5.0}``):
+        the keys are read as indices, and a later one would silently replace the first."""
+        if not isinstance(value, dict) or "distribution" in value:
+            return value
+        seen: dict = {}
+        for key in value:
+            try:
+                index = _index_key(key)
+            except PydanticCustomError:
+                continue  # the schema names the bad key
+            if index in seen:
+                raise _FieldProblem("granules.velocity", (
+                    f"granule {index} is given twice (as {seen[index]!r} and {key!r}); "
+                    f"give each index once"))
+            seen[index] = key
+        return value
 
     @model_validator(mode="after")
     def _state_from_file(self, info: ValidationInfo) -> "Granules":
@@ -433,7 +465,7 @@ class Output(_Strict):
         None, ge=1, description="Steps between checkpoints (Verlet steps; Taylor steps with "
         "the event stepper): granular-chain run --restart RUN_DIR continues the run from the "
         "latest, bit for bit. A run also checkpoints when it is interrupted.")
-    thermo: Optional[int] = Field(
+    thermo: Optional[Annotated[int, Int]] = Field(
         None, ge=1, description="Steps between thermo lines (t, energies, dissipated energy, "
         "ledger error, closed contacts, sliding granules) printed by granular-chain run and "
         "saved as thermo.csv; default about 20 lines a run. The event stepper writes a line "
@@ -793,7 +825,8 @@ def _problem(err) -> str:
     """What is wrong with one value, in words (pydantic's wording kept in brackets)."""
     msg, kind, value = err["msg"], err["type"], err.get("input")
     bound = next(iter(err.get("ctx", {}).values()), None)
-    if kind in ("number_type", "integer_type", "bool_type", "string_type", "name", "scale"):
+    if kind in ("number_type", "integer_type", "integer_size", "bool_type", "string_type",
+                "name", "scale", "index_twice"):
         return msg
     if kind == "finite_number":
         return f"must be a finite number (NaN and Inf are not allowed; got {value!r})"
@@ -934,10 +967,31 @@ class _SceneLoader(yaml.SafeLoader):
         return ("node", id(node))
 
 
+# Numbers as YAML 1.2 (core schema) reads them, not as PyYAML's YAML 1.1: ``010`` is
+# ten (not octal 8), ``1e-3`` is a float (not a string), and ``1:30`` (base 60: 90),
+# ``1_000`` and ``0b101`` are not numbers (strings, which the schema refuses).
+_INT_TAG, _FLOAT_TAG = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
+_SceneLoader.yaml_implicit_resolvers = {
+    first: [(tag, regexp) for tag, regexp in resolvers if tag not in (_INT_TAG, _FLOAT_TAG)]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()}
 _SceneLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    _INT_TAG, re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$"), list("-+0123456789"))
+_SceneLoader.add_implicit_resolver(
+    _FLOAT_TAG,
+    re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+               r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
     list("-+0123456789."))
+
+
+def _yaml12_int(loader, node) -> int:
+    """An integer of the YAML 1.2 core schema: decimal (leading zeros allowed), 0o, 0x."""
+    text = loader.construct_scalar(node)
+    if text.startswith(("0o", "0x")):
+        return int(text[2:], 8 if text[1] == "o" else 16)
+    return int(text, 10)
+
+
+_SceneLoader.add_constructor(_INT_TAG, _yaml12_int)
 
 
 def _yaml_problem(exc: yaml.YAMLError) -> str:

@@ -4,7 +4,8 @@ figures | boundaries.
 Exit status: 0 success, 1 a run that ended without success (its outputs say
 why), 2 bad input (one line on stderr naming the file, the field and the
 problem; nothing written), 130 interrupted by Ctrl-C (SIGINT), 143 terminated
-(SIGTERM): an interrupted run is written as far as it went, marked incomplete.
+(SIGTERM), 129 hung up (SIGHUP): an interrupted run is written as far as it went,
+marked incomplete.
 
 What ``run`` writes, and where, is described in :mod:`.run`.
 
@@ -17,6 +18,7 @@ exit statuses.
 
 from .exit_codes import (  # noqa: F401  (re-exported)
     EXIT_BAD_INPUT,
+    EXIT_HANGUP,
     EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_RUN_FAILED,

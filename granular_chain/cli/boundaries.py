@@ -28,7 +28,7 @@ def run(args) -> int:
     Returns
     -------
     int
-        Exit status: 0 ok, 2 bad input.
+        Exit status: 0 ok, 2 bad input, 128 + N stopped by signal N.
     """
     from ..two_granules.boundaries import run_boundaries_command
     from ..warmup import announce_compilation

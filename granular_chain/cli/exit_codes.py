@@ -5,10 +5,11 @@ from __future__ import annotations
 import sys
 
 __all__ = ["EXIT_OK", "EXIT_RUN_FAILED", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED",
-           "EXIT_TERMINATED", "fail"]
+           "EXIT_TERMINATED", "EXIT_HANGUP", "fail"]
 
 EXIT_OK, EXIT_RUN_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # 128 + signal number, as shells report
+EXIT_HANGUP = 129  # SIGHUP: the terminal was closed
 
 
 def fail(message: str) -> int:

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import sys
 
-from .exit_codes import EXIT_BAD_INPUT, fail
+from .exit_codes import EXIT_BAD_INPUT, EXIT_INTERRUPTED, fail
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -63,10 +65,89 @@ def main(argv=None) -> int:
     int
         Exit status (see :mod:`granular_chain.cli.exit_codes`).
     """
-    args = build_parser().parse_args(argv)
-    if args.command not in COMMANDS:
-        return EXIT_BAD_INPUT  # argparse already refused unknown commands
-    if getattr(args, "out", None) is not None and not str(args.out).strip():
-        # an empty --out would fall back to a default place: say so instead
-        return fail("--out: is empty; name a new folder (or file, for diagnose)")
-    return _command(args.command).run(args)
+    _drop_output_to_closed_pipes()
+    status = _main(argv)
+    if argv is None and status > 128:  # the process's own command, stopped by a signal
+        _exit_now(status)
+    return status
+
+
+def _exit_now(status: int) -> None:
+    """End the process at once, its files closed and its output flushed: the
+    interpreter's teardown (unloading the compiled kernels) can take seconds on a
+    loaded machine, and a user who asked the command to stop waits for it."""
+    import atexit
+
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(status)
+
+
+def _main(argv) -> int:
+    """Parse and dispatch; a stray signal or a MemoryError said in one line."""
+    try:
+        args = build_parser().parse_args(argv)
+        if args.command not in COMMANDS:
+            return EXIT_BAD_INPUT  # argparse already refused unknown commands
+        if getattr(args, "out", None) is not None and not str(args.out).strip():
+            # an empty --out would fall back to a default place: say so instead
+            return fail("--out: is empty; name a new folder (or file, for diagnose)")
+        return _command(args.command).run(args)
+    except KeyboardInterrupt:  # a signal outside a run's own handling (start-up, a
+        # second Ctrl-C): one line, no traceback; what was being written is cleaned up
+        print("granular-chain: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except MemoryError:  # a cap the up-front estimate cannot see (ulimit -v, cgroups)
+        print("granular-chain: out of memory: the process could not allocate what the run "
+              "needs (a limit such as ulimit -v or a container's may be below the machine's "
+              "memory); nothing written", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+class _ClosedPipeSafe:
+    """A text stream whose output is dropped once its reader has gone (``| head``):
+    the command goes on and ends as it would have, without a BrokenPipeError."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _drop(self) -> None:
+        # later writes, and the flush at exit, go to /dev/null
+        null = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(null, self._stream.fileno())
+        finally:
+            os.close(null)
+
+    def write(self, text):
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._drop()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._drop()
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _drop_output_to_closed_pipes() -> None:
+    """Wrap stdout and stderr (once) in :class:`_ClosedPipeSafe`."""
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if stream is None or isinstance(stream, _ClosedPipeSafe):
+            continue
+        try:
+            stream.fileno()
+        except (AttributeError, OSError, ValueError):  # not a file (pytest's capture)
+            continue
+        setattr(sys, name, _ClosedPipeSafe(stream))

@@ -200,7 +200,8 @@ def run(args) -> int:
     Returns
     -------
     int
-        Exit status: 0 ok, 1 run failed, 2 bad input, 130/143 interrupted.
+        Exit status: 0 ok, 1 run failed, 2 bad input (also a full disk or too little
+        memory), 129/130/143 stopped by SIGHUP/SIGINT/SIGTERM.
     """
     from ..rundir import OutputError
     from ..simulate import SimulationError
@@ -252,6 +253,20 @@ def _note_killed_runs(out: Path) -> None:
               f"continue it with --restart {tmp}, or remove it", file=sys.stderr)
 
 
+def _attach(args, scene, model, folder: Path, resume) -> _Attached:
+    """The run's writers; a continued run's files that cannot be reopened (a truncated
+    or corrupted trajectory.h5) are refused in one line."""
+    from ..rundir import OutputError
+
+    if resume is None:
+        return _Attached(scene, model, folder, not args.quiet, resume)
+    try:
+        return _Attached(scene, model, folder, not args.quiet, resume)
+    except (OSError, ValueError, KeyError) as exc:
+        raise OutputError(f"--restart {args.restart}: its files cannot be continued from "
+                          f"the checkpoint ({' '.join(str(exc).split())})") from None
+
+
 def _execute(args, scene, model, out: Path, restart) -> int:
     """Run with the writers attached, then publish the run folder."""
     from ..checkpoint import CHECKPOINT
@@ -267,7 +282,7 @@ def _execute(args, scene, model, out: Path, restart) -> int:
         try:
             with RunFolder(out, about) as folder:
                 resume = restart.prepare(folder.tmp) if restart is not None else None
-                attached = _Attached(scene, model, folder.tmp, not args.quiet, resume)
+                attached = _attach(args, scene, model, folder.tmp, resume)
                 try:
                     # thermo lines are the progress report; no bar beside them
                     result = simulate(
@@ -296,6 +311,8 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                     restart.finish()
         except OutputError as exc:
             return fail(str(exc))
+        except OSError as exc:  # a full disk, a quota, an I/O error: the folder is removed
+            return fail(f"{out}: cannot be written ({_os_problem(exc)}); nothing written")
         except KeyboardInterrupt:  # a second signal: nothing kept, nothing left behind
             print(f"granular-chain: interrupted; nothing written to {out}", file=sys.stderr)
             return stop.exit_code or EXIT_INTERRUPTED
@@ -305,10 +322,22 @@ def _execute(args, scene, model, out: Path, restart) -> int:
     return EXIT_OK if result.success else EXIT_RUN_FAILED
 
 
+def _os_problem(exc: OSError) -> str:
+    """An OSError in words: its reason, and the file when it names one."""
+    import errno
+    what = exc.strerror or str(exc)
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        what += ": free some space, or write elsewhere with --out"
+    return f"{exc.filename}: {what}" if exc.filename else what
+
+
 def _report(args, result, out: Path, reason: str) -> None:
     if reason:  # said even with --quiet: the folder is not what a finished run leaves
         print(f"granular-chain: {reason}; wrote {out}/ marked incomplete", file=sys.stderr)
     if args.quiet:
+        if not reason and not result.success:  # why the run failed, in one line
+            print(f"granular-chain: {result.status.name.lower()}: {result.message}; wrote "
+                  f"{out}/", file=sys.stderr)
         return
     print(f"{result.status.name.lower()}: {result.message}")
     for w in result.info.get("warnings", []):

@@ -60,7 +60,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain sweep``: 0 done, 2 bad input, 130 interrupted.
+    """Entry point of ``granular-chain sweep``: 0 done, 1 every point failed, 2 bad input,
+    130 interrupted (129, 143: SIGHUP, SIGTERM in a --serial sweep).
 
     Parameters
     ----------
@@ -98,7 +99,12 @@ def run(args) -> int:
     if stats.interrupted:
         print(f"granular-chain: interrupted after {stats.skipped + stats.computed} of "
               f"{stats.points} points; rerun the same command to resume", file=sys.stderr)
-        return 130
+        return 128 + stats.signal if stats.signal else 130
+    if stats.computed and stats.failed == stats.computed:
+        print(f"granular-chain: every point of the sweep failed ({stats.failed} of "
+              f"{stats.points}; results in {stats.results}); the first: {stats.first_error}",
+              file=sys.stderr)
+        return 1
     if args.quantity:
         if len(axes) != 2:
             print("granular-chain: heat maps need exactly two axes", file=sys.stderr)

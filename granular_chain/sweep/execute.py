@@ -48,6 +48,12 @@ class SweepStats:
         Sum of the points' evaluation times, seconds.
     sum_kernel : float
         Sum of the points' stepping times, seconds.
+    failed : int
+        Computed points that could not run (status ``error``).
+    first_error : str
+        The message of the first of them.
+    signal : int
+        The signal that stopped a serial sweep (0: none, or Ctrl-C under dask).
     """
 
     points: int               # points in the grid
@@ -61,6 +67,9 @@ class SweepStats:
     setup: float = 0.0        # seconds to start the cluster
     sum_eval: float = 0.0     # sum of eval_time over the computed points
     sum_kernel: float = 0.0   # sum of wall_time (stepping) over the computed points
+    failed: int = 0           # computed points with status error
+    first_error: str = ""     # the message of the first
+    signal: int = 0           # the signal that stopped a serial sweep
 
     def overhead_per_point(self) -> float:
         """Seconds per point that were not spent stepping, with the workers' time pooled.
@@ -178,9 +187,11 @@ def run_sweep(scene_path, axes: Sequence[Axis], *, out_dir, fixed: Sequence[str]
             batches = [pending[i:i + batch_size] for i in range(0, len(pending), batch_size)]
             start = time.perf_counter()
             try:
-                pool.run(batches, (data, str(scene_path), paths), options, rows.take)
+                stats.signal = pool.run(batches, (data, str(scene_path), paths), options,
+                                        rows.take)
             except KeyboardInterrupt:
                 stats.interrupted = True
+            stats.interrupted = stats.interrupted or stats.signal != 0
             stats.wall = time.perf_counter() - start
     return stats
 
@@ -228,6 +239,10 @@ class _Rows:
         stats.batches += 1
         stats.sum_eval += sum(float(r.get("eval_time") or 0.0) for r in rows)
         stats.sum_kernel += sum(float(r.get("wall_time") or 0.0) for r in rows)
+        errors = [r for r in rows if r.get("status") == "error"]
+        if errors and not stats.failed:
+            stats.first_error = str(errors[0].get("message", ""))
+        stats.failed += len(errors)
         if self.bar is not None:
             self.bar.update(len(rows))
 
@@ -270,14 +285,13 @@ class _Workers:
             raise SweepError(f"executor must be 'dask' or 'serial', got {executor!r}")
         stats.setup = time.perf_counter() - t0
 
-    def run(self, batches: list, task: tuple, options: PointOptions, take) -> None:
+    def run(self, batches: list, task: tuple, options: PointOptions, take) -> int:
         """Run every batch of ``task`` = (scene mapping, source, paths); ``take`` gets
-        each batch's rows as it finishes."""
+        each batch's rows as it finishes. Returns the signal that stopped a serial
+        sweep (0: none)."""
         data, source, paths = task
         if self.serial:
-            for batch in batches:
-                take(run_batch(data, source, paths, batch, options))
-            return
+            return _run_serial(batches, task, options, take)
         from distributed import as_completed
         client = self.client
         # hash=False: a content-hashed key would be shared with an earlier
@@ -300,6 +314,29 @@ class _Workers:
             self.own_client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+def _run_serial(batches: list, task: tuple, options: PointOptions, take) -> int:
+    """The batches in this process, point by point, under one stop request: SIGINT,
+    SIGTERM or SIGHUP ends the point being run within a compiled chunk (its row,
+    interrupted, is dropped: it is run again on resume) and the sweep after it.
+    Returns the signal's number (0: none)."""
+    from ..interrupts import stop_signals
+
+    data, source, paths = task
+    with stop_signals() as stop:
+        for batch in batches:
+            rows = []
+            for coords in batch:
+                row = run_batch(data, source, paths, [coords], options)[0]
+                if stop.requested:
+                    break
+                rows.append(row)
+            if rows:
+                take(rows)
+            if stop.requested:
+                return stop.signum
+    return 0
 
 
 def _bar(progress, total, initial):
