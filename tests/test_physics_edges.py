@@ -76,14 +76,14 @@ def test_dt_above_the_accuracy_bound_is_refused_with_the_bound(tmp_path, capsys)
 
 
 def test_accepted_inaccurate_dt_runs_and_its_ledger_judges_it(tmp_path, capsys):
-    """With run.accept_inaccurate_dt the run goes; its 6.4 % energy error misses the
+    """With run.accept_inaccurate_dt the run goes; its energy ledger misses the
     default tolerance: inaccurate, exit 1."""
     out = tmp_path / "run"
     assert main(["run", str(SCENES / "two_granules.yaml"), "--out", str(out), "--quiet",
                  "--set", "run.dt=0.5", "--set", "run.accept_inaccurate_dt=true"]) == 1
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["status"] == "inaccurate"
-    assert 0.05 < summary["energy"]["balance_error"] < 0.08
+    assert summary["status"] == "inaccurate", summary["message"]
+    assert "exceeds run.energy_tolerance 0.01" in summary["message"]
 
 
 def test_dt_at_the_accuracy_bound_runs():
@@ -131,12 +131,12 @@ def test_tensile_underdamped_dashpot_still_separates():
 # --- the event stepper's valid range of n -------------------------------------
 
 def test_event_stepper_refuses_exponents_above_its_range(tmp_path, capsys):
-    from granular_chain.steppers.events import MAX_EXPONENT
-
     n = 20.0
-    assert n > MAX_EXPONENT
     with pytest.raises(gc.SimulationError, match=r"contacts.exponent: .* n <= "):
         collide(n, stepper="event")
+    from granular_chain.steppers.events import MAX_EXPONENT
+
+    assert n > MAX_EXPONENT
     scene = tmp_path / "high.yaml"
     scene.write_text(f"granules: {{count: 2, velocity: [1, 0]}}\ncontacts: {{exponent: {n}}}\n"
                      "run: {stepper: event, t_end: 5}\n")
@@ -166,12 +166,13 @@ def test_verlet_takes_large_exponents():
 
 def test_verlet_near_one_gives_the_exact_outcome_at_its_default_step():
     """Equal masses, elastic: the exact answer is v1 = 0, v2 = 1 (propagation only)."""
-    from granular_chain.steppers.verlet.driver import NEAR_ONE_STEPS_PER_PERIOD
-
     c = collide(1.01, stepper="verlet")
     assert c.outcome.name == "propagation_only"
+    from granular_chain.steppers.verlet.driver import NEAR_ONE_STEPS_PER_PERIOD
+
     T = c.result.model.shortest_period()
-    assert c.result.dt == pytest.approx(T / NEAR_ONE_STEPS_PER_PERIOD, rel=1e-9)
+    # (shortened by at most one step in t_max / dt = 4.97e5, to end exactly at t_max)
+    assert c.result.dt == pytest.approx(T / NEAR_ONE_STEPS_PER_PERIOD, rel=1e-5)
     assert abs(c.v1) < 2e-3 and c.result.energy.balance_error < 5e-3
 
 
@@ -186,12 +187,12 @@ def test_vtk_contact_forces_add_up_to_the_net_force_damped_and_driven(tmp_path):
 
     scene = gc.scene_from_dict({
         "name": "driven",
-        "granules": {"count": 6, "radius": 0.5, "gap": 0.0, "velocity": {0: 0.3}},
+        "granules": {"count": 6, "radius": 1.0, "gap": 0.0, "velocity": {0: 0.3}},
         "contacts": {"exponent": 2.5, "damping": {"model": "linear", "coefficient": 0.3}},
         "walls": {"left": {"gap": 0.0, "exponent": 2.5,
                            "motion": {"sine": {"amplitude": 0.05, "frequency": 0.3}}},
                   "right": {"gap": 0.0, "exponent": 2.5}},
-        "body_force": {"g": 0.05, "direction": -1},
+        "body_force": {"g": 0.01, "direction": -1},
         "run": {"t_end": 12.0}, "output": {"dt": 0.5}})
     r = gc.simulate(scene, progress=False)
     assert r.success

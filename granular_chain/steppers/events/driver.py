@@ -42,9 +42,12 @@ __all__ = ["simulate_events", "checkpoint_state", "EventRun", "check_exponents",
 #: promise at rtol 1e-12: n = 1.01: 2.4e-3 / 3.2e-10; 1.5: 3.5e-10 / 3.1e-10;
 #: 1.6: 0.1 of it; 1.75: 0.001 of it; docs/events.md). Verlet takes every n > 1.
 MIN_EXPONENT = 1.75
-#: Largest contact exponent the event stepper accepts. Above it the ledger error of
-#: a two-granule collision exceeds the promise (measured: MAX_EXPONENT_MEASURED);
-#: Verlet takes such exponents (n = 30-80) at its default step.
+#: Largest contact exponent the event stepper accepts. The error of its Taylor
+#: series grows with n: two equal granules at rtol 1e-12 (exact: v1 = 0), ledger
+#: error at n = 8, 10, 12, 14, 16, 20: 5.2e-12, 1.2e-11, 2.6e-11, 5.9e-11, 1.3e-10,
+#: 6.7e-10, so from n = 16 on the error exceeds 100 rtol and at n = 20 v1 = -3.4e-10
+#: names a backscatter the exact answer does not have (docs/events.md). 12 keeps
+#: 4x below 100 rtol. Verlet takes larger exponents (n = 30-80) at its default step.
 MAX_EXPONENT = 12.0
 #: Taylor steps before the pace of a run is judged (its start and first events
 #: can take short steps that later ones do not).
