@@ -28,6 +28,7 @@ from .steppers.verlet.driver import (  # noqa: F401  (re-exported: benchmarks an
     _net_forces,
     _overlap_caps,
     _uniform_code,
+    check_accuracy,
     check_dt,
     default_dt,
     step_plan,
@@ -64,6 +65,8 @@ def preflight(scene: Scene) -> Model:
     if scene.run.stepper == "verlet" and scene.run.check_dt:
         dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
         check_dt(model, dt)
+        if scene.run.dt is not None and not scene.run.accept_inaccurate_dt:
+            check_accuracy(model, dt)
     return model
 
 

@@ -44,14 +44,15 @@ def test_linear_dashpot_restitution_matches_the_closed_form(tensile, b):
     ref = R.linear_dashpot(c, 1.0, M_EFF, tensile)
     col = collide(2, stepper="event", damping={"model": "linear", "coefficient": c},
                   tensile=tensile)
-    assert col.result.status == gc.Status.SEPARATED
+    assert col.result.status == (gc.Status.SEPARATED if ref.ended else gc.Status.T_END)
     assert abs(_e(col) - ref.e) <= 1e-12
-    if ref.ended and ref.contact_time < 100:
+    if ref.ended:
         assert col.t_separation == pytest.approx(ref.contact_time, rel=1e-12, abs=0)
     else:
-        # tensile, b >= 1: the overlap decays for ever (e = 0); it crosses zero at
-        # roundoff, with both granules at the centre-of-mass speed
-        assert ref.e == 0.0 and col.t_separation > 20.0
+        # tensile, b >= 1: the overlap decays for ever (e = 0) and the contact never
+        # opens; both granules end at the centre-of-mass speed
+        assert ref.e == 0.0 and col.t_separation == math.inf
+        assert col.outcome.name == "no_separation"
     assert col.result.energy.balance_error <= 1e-14
 
 

@@ -15,15 +15,17 @@ points, shape (N, 3)
     Granule centres ``(x_i, 0, 0)``.
 point data, shape (N,)
     ``radius``, ``mass``, ``velocity`` (signed, along the chain), ``net_force`` (the net
-    contact force on the granule from its neighbours and walls, i.e. ``Result.f``;
+    force on the granule from its neighbours, walls and body force, i.e. ``Result.f``;
     friction is not included because a stuck granule's static friction force is not
     a state variable), ``friction_state`` (int8: 1 stuck = at rest exactly with
     Coulomb friction present, 0 sliding/moving, -1 no Coulomb friction on that granule).
 line cells, N - 1
     Every neighbour pair ``(i, i+1)``, open or closed, with cell data ``overlap``
     ``delta_i = r_i + r_(i+1) - (x_(i+1) - x_i)`` (negative = gap), ``force``
-    ``k_i max(delta_i, 0)^(n_i - 1)`` (compressive, >= 0; the contact law of
-    :mod:`granular_chain.laws.contact`) and ``in_contact`` (uint8).
+    (pushing apart when positive: the contact law of :mod:`granular_chain.laws.contact`
+    ``k_i max(delta_i, 0)^(n_i - 1)`` plus, with dashpots, the dashpot force of
+    :mod:`granular_chain.laws.damping` at the frame's velocities, clipped at 0 unless
+    the contacts are tensile) and ``in_contact`` (uint8).
     All pairs are kept, not only the closed ones, so every frame has the same
     topology: ParaView's temporal filters (Plot Data Over Time on a contact) then
     follow one contact through the run, and Threshold on ``in_contact`` shows only the
@@ -33,9 +35,11 @@ field data
     ``TimeValue`` (ParaView's per-file time), ``frame`` (index), ``friction_state_legend``;
     ``wall_overlap`` and ``wall_force``, shape (2,): the left then the right wall
     contact, as the cells' ``overlap`` and ``force`` (a chain without that wall:
-    overlap NaN, force 0). With them the contact forces add up to ``net_force``:
-    ``net_force_0 = wall_force_left - force_0``, ``net_force_(N-1) = force_(N-2) -
-    wall_force_right``.
+    overlap NaN, force 0), a driven wall where it is at the frame's time (its speed
+    in its dashpot). With them the contact forces add up to ``net_force`` less the
+    body force ``b_i`` (gravity or given forces; 0 without): ``net_force_i - b_i =
+    force_(i-1) - force_i``, with ``force_(-1) = wall_force_left`` and ``force_(N-1)
+    = wall_force_right``.
 
 What is written by hand: only the ``.pvd`` collection index (a ten-line XML file). VTK
 has no writer for it outside ParaView, and meshio does not write it either (meshio's
@@ -57,8 +61,11 @@ import numba
 import numpy as np
 
 from ..laws.contact import LAW_POWER, contact_force
+from ..laws.damping import DAMPING_NONE, damped_contact_force
+from ..laws.wall_motion import wall_displacement, wall_speed
 
 __all__ = ["contact_overlap_force", "ContactForces", "WallContact", "wall_contacts",
+           "Dissipation", "dissipation_of",
            "friction_state", "VTKSeriesWriter", "VTKFrames", "write_vtk", "FRAME_DIR",
            "PVD_NAME"]
 
@@ -127,15 +134,78 @@ def _law_forces(law, overlap, k, n, force):
         force[i] = contact_force(law, overlap[i], k[i], n[i])
 
 
-def contact_overlap_force(x, radius, k, n, walls=(None, None),
-                          law: int = LAW_POWER) -> ContactForces:
-    """Overlap and compressive force of every contact, neighbours and walls.
+class Dissipation(NamedTuple):
+    """What sets a frame's contact forces besides positions: dashpots and driven walls.
+
+    Attributes
+    ----------
+    damping : int
+        Dashpot law (:mod:`granular_chain.laws.damping`).
+    tensile : int
+        1: a damped contact may pull while closed.
+    coefficient : ndarray, shape (N+1,)
+        Dashpot coefficient of the left wall, the N-1 contacts, the right wall.
+    motion : ndarray, shape (2, 3)
+        (kind, p1, p2) of the left and right wall (:mod:`granular_chain.laws.wall_motion`).
+    """
+
+    damping: int
+    tensile: int
+    coefficient: np.ndarray
+    motion: np.ndarray
+
+
+def dissipation_of(model) -> Optional[Dissipation]:
+    """The :class:`Dissipation` of ``model``, or None for fixed walls and no dashpots.
+
+    Parameters
+    ----------
+    model : Model
+        The chain constants of the run.
+
+    Returns
+    -------
+    Dissipation or None
+    """
+    feat = model.features
+    if feat.damping == DAMPING_NONE and not feat.driven:
+        return None
+    wall = np.asarray(model.wall_damping, dtype=np.float64)
+    coefficient = np.concatenate(([wall[0]], np.asarray(model.damping, dtype=np.float64),
+                                  [wall[1]]))
+    return Dissipation(int(feat.damping), int(feat.tensile), coefficient,
+                       np.asarray(model.wall_motion, dtype=np.float64).reshape(2, 3))
+
+
+@numba.njit(cache=True)
+def _damped_forces(law, damping, tensile, overlap, rate, k, n, coefficient, force):
+    """``force[i]``: spring plus dashpot of contact i (:func:`..laws.damping.damped_contact_force`)
+    at overlap ``overlap[i]`` and overlap rate ``rate[i]``; arrays of shape (M,)."""
+    for i in range(overlap.size):
+        force[i] = damped_contact_force(law, damping, tensile, overlap[i], rate[i], k[i], n[i],
+                                        coefficient[i])
+
+
+def _wall_state(motion, t):
+    """((s_L, s_R), (s_L', s_R')): the walls' displacements and speeds at time t."""
+    s = tuple(float(wall_displacement(int(m[0]), m[1], m[2], t)) for m in motion)
+    ds = tuple(float(wall_speed(int(m[0]), m[1], m[2], t)) for m in motion)
+    return s, ds
+
+
+def contact_overlap_force(x, radius, k, n, walls=(None, None), law: int = LAW_POWER,
+                          v=None, t: float = 0.0,
+                          dissipation: Optional[Dissipation] = None) -> ContactForces:
+    """Overlap and force of every contact, neighbours and walls.
 
     The force is the contact law of :mod:`granular_chain.laws.contact`, the one
     the steppers call: ``law`` is the run's (``model.features.law``); the general
-    power law ``k max(delta, 0)^(n - 1)`` by default. The overlaps are formed
-    from positions, the steppers' from displacements: the two differ by a few
-    ulps of the largest position.
+    power law ``k max(delta, 0)^(n - 1)`` by default. With ``dissipation`` it is
+    the steppers' whole contact force: the dashpots' at velocities ``v``
+    (:func:`granular_chain.laws.damping.damped_contact_force`) and the driven walls
+    where they are at time ``t``. The overlaps are formed from positions, the
+    steppers' from displacements: the two differ by a few ulps of the largest
+    position.
 
     Parameters
     ----------
@@ -149,26 +219,44 @@ def contact_overlap_force(x, radius, k, n, walls=(None, None),
         The left and right wall (:func:`wall_contacts`); none by default.
     law : int
         The contact law code of every contact and wall (:mod:`..laws.contact`).
+    v : ndarray, shape (N,), optional
+        Velocities (needed with ``dissipation``).
+    t : float
+        Time of the frame since the run's start (driven walls).
+    dissipation : Dissipation, optional
+        Dashpots and wall motion (:func:`dissipation_of`); None: springs and fixed walls.
 
     Returns
     -------
     ContactForces
     """
     x = np.asarray(x, dtype=np.float64)
-    overlap = np.ascontiguousarray(radius[:-1] + radius[1:] - (x[1:] - x[:-1]))
-    force = np.empty(overlap.size)
-    _law_forces(law, overlap, np.ascontiguousarray(k, dtype=np.float64),
-                np.ascontiguousarray(n, dtype=np.float64), force)
+    N = x.size
+    d = np.zeros(N + 1)  # left wall, the N-1 contacts, right wall
+    d[1:N] = radius[:-1] + radius[1:] - (x[1:] - x[:-1])
+    kk, nn = np.zeros(N + 1), np.full(N + 1, 2.0)
+    kk[1:N], nn[1:N] = k, n
     left, right = walls
-    wall_overlap = np.array([np.nan, np.nan])
-    wall_k, wall_n = np.zeros(2), np.full(2, 2.0)
-    if left is not None:  # delta_L = d0_L - u_0, with u_0 = x_0 - x0_0
-        wall_overlap[0], wall_k[0], wall_n[0] = left.d0 - (x[0] - left.x0), left.k, left.n
-    if right is not None:  # delta_R = d0_R + u_(N-1)
-        wall_overlap[1], wall_k[1], wall_n[1] = right.d0 + (x[-1] - right.x0), right.k, right.n
-    wall_force = np.zeros(2)
-    _law_forces(law, np.nan_to_num(wall_overlap, nan=0.0), wall_k, wall_n, wall_force)
-    return ContactForces(overlap, force, wall_overlap, wall_force)
+    present = [left is not None, right is not None]
+    (s_left, s_right), (ds_left, ds_right) = (
+        _wall_state(dissipation.motion, t) if dissipation is not None else ((0.0, 0.0),) * 2)
+    if left is not None:  # delta_L = d0_L + s_L - u_0, with u_0 = x_0 - x0_0
+        d[0], kk[0], nn[0] = left.d0 + s_left - (x[0] - left.x0), left.k, left.n
+    if right is not None:  # delta_R = d0_R + u_(N-1) - s_R
+        d[N], kk[N], nn[N] = right.d0 + (x[-1] - right.x0) - s_right, right.k, right.n
+    force = np.zeros(N + 1)
+    if dissipation is None or dissipation.damping == DAMPING_NONE:
+        _law_forces(law, d, kk, nn, force)
+    else:
+        v = np.asarray(v, dtype=np.float64)
+        rate = np.empty(N + 1)  # d(delta)/dt: the left side's speed less the right side's
+        rate[1:N] = v[:-1] - v[1:]
+        rate[0], rate[N] = ds_left - v[0], v[-1] - ds_right
+        _damped_forces(law, dissipation.damping, dissipation.tensile, d, rate, kk, nn,
+                       dissipation.coefficient, force)
+    wall_overlap = np.where(present, d[[0, N]], np.nan)
+    wall_force = np.where(present, force[[0, N]], 0.0)
+    return ContactForces(d[1:N].copy(), force[1:N].copy(), wall_overlap, wall_force)
 
 
 def friction_state(v, eta_static):
@@ -220,10 +308,13 @@ class VTKSeriesWriter:
     law : int
         The run's contact law code (``model.features.law``); the general power
         law by default.
+    dissipation : Dissipation, optional
+        Dashpots and driven walls (:func:`dissipation_of`); None: springs and fixed walls.
     """
 
     def __init__(self, folder, radius, mass, k, n, eta_static, *, compression="zlib",
-                 walls=(None, None), law: int = LAW_POWER):
+                 walls=(None, None), law: int = LAW_POWER,
+                 dissipation: Optional[Dissipation] = None):
         import pyvista as pv  # heavy: imported only when a VTK series is asked for
         from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
@@ -235,6 +326,7 @@ class VTKSeriesWriter:
         self.eta_static = np.asarray(eta_static, dtype=np.float64)
         self.walls = tuple(walls)
         self.law = int(law)
+        self.dissipation = dissipation
         N = self.radius.size
         self._points = np.zeros((N, 3))
         lines = np.empty((max(N - 1, 0), 3), dtype=np.int64)
@@ -300,7 +392,8 @@ class VTKSeriesWriter:
         self._v[:] = v
         self._f[:] = f
         self._state[:] = friction_state(v, self.eta_static)
-        contacts = contact_overlap_force(x, self.radius, self.k, self.n, self.walls, self.law)
+        contacts = contact_overlap_force(x, self.radius, self.k, self.n, self.walls, self.law,
+                                         v, t, self.dissipation)
         if self.radius.size > 1:
             mesh.cell_data["overlap"][:] = contacts.overlap
             mesh.cell_data["force"][:] = contacts.force
@@ -385,7 +478,8 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
         frames = tqdm(frames, desc="writing VTK", unit="frame", leave=False, delay=1.0)
     with VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
                          model.eta_static, compression=compression,
-                         walls=wall_contacts(model), law=model.features.law) as series:
+                         walls=wall_contacts(model), law=model.features.law,
+                         dissipation=dissipation_of(model)) as series:
         for i in frames:
             if should_stop is not None and should_stop():
                 break
@@ -416,7 +510,8 @@ class VTKFrames:
                  resume_frames: Optional[int] = None):
         self.series = VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
                                       model.eta_static, compression=compression,
-                                      walls=wall_contacts(model), law=model.features.law)
+                                      walls=wall_contacts(model), law=model.features.law,
+                                      dissipation=dissipation_of(model))
         self._indexed = -1.0
         if resume_frames is not None:
             self._resume(Path(folder), int(resume_frames))

@@ -19,12 +19,13 @@ The method and its error control are described in :mod:`.kernel` and docs/events
 
 from ...units import internal_scales as _scales  # noqa: F401  (two_granules)
 from .batch import POINT_BUDGET, BatchOutput, EventBatch
-from .driver import (CHECKPOINT_FORMAT, FIRST_BUDGET, MIN_EXPONENT, EventRun, check_exponents,
-                     checkpoint_state, next_budget, simulate_events)
+from .driver import (CHECKPOINT_FORMAT, FIRST_BUDGET, MAX_EXPONENT, MIN_EXPONENT, EventRun,
+                     check_exponents, checkpoint_state, next_budget, simulate_events)
 from .options import EventOptions, event_options, series_order
 from .report import EXACT_LEDGER_ULPS, ledger_tolerance
 
 __all__ = ["simulate_events", "series_order", "checkpoint_state", "EventRun", "EventBatch",
-           "BatchOutput", "check_exponents", "MIN_EXPONENT", "EventOptions", "event_options",
+           "BatchOutput", "check_exponents", "MIN_EXPONENT", "MAX_EXPONENT", "EventOptions",
+           "event_options",
            "ledger_tolerance", "EXACT_LEDGER_ULPS", "POINT_BUDGET",
            "FIRST_BUDGET", "CHECKPOINT_FORMAT", "next_budget"]

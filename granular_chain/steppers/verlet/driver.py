@@ -50,18 +50,34 @@ from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UN
 if TYPE_CHECKING:  # (annotations only: the scene module is not needed to step)
     from ...scene import Scene
 
-__all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt"]
+__all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt", "accuracy_bound",
+           "check_accuracy", "smallest_exponent", "ACCURACY_STEPS_PER_PERIOD",
+           "ACCURACY_STEPS_PER_RELAXATION", "NEAR_ONE_EXPONENT", "NEAR_ONE_STEPS_PER_PERIOD"]
 
 # Velocity Verlet on a linear contact of period T is unstable for dt > T/pi.
 _STABILITY_FRACTION = 1.0 / math.pi
 _DEFAULT_STEPS_PER_PERIOD = 200
+#: Near n = 1 the force k delta^(n-1) is almost a step at contact and Verlet is
+#: first order (docs/verlet_convergence.md): below NEAR_ONE_EXPONENT the default
+#: step is 1/NEAR_ONE_STEPS_PER_PERIOD of the period (collide(1.01): ledger error
+#: 2.2e-3 against 6.8e-3 at 1/200).
+NEAR_ONE_EXPONENT = 1.5
+NEAR_ONE_STEPS_PER_PERIOD = 800
 _DEFAULT_FRAMES = 1000
 _DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
 _UNSTABLE_BALANCE = 1.0
+#: The accuracy bound of run.dt: T / ACCURACY_STEPS_PER_PERIOD (T the shortest contact
+#: period or collision time) and, with linear dashpots, m_eff / (c
+#: ACCURACY_STEPS_PER_RELAXATION). Above it a run is refused unless
+#: run.accept_inaccurate_dt (two_granules.yaml at dt = 0.5, 5.6 times the bound:
+#: energy grows 6.4 %).
+ACCURACY_STEPS_PER_PERIOD = 50
+ACCURACY_STEPS_PER_RELAXATION = 40
 
 
 def default_dt(model: Model, t_end: float = math.inf) -> float:
-    """1/200 of the shortest contact period (or collision time), at most t_end/100,
+    """1/200 of the shortest contact period (or collision time; 1/800 when an
+    exponent, walls' included, is below NEAR_ONE_EXPONENT), at most t_end/100,
     shortened so that a whole number of steps ends exactly at a finite t_end.
     With dashpots or a sine-driven wall, also at most what they allow
     (:func:`.forced_setup.forced_dt_limit`).
@@ -79,13 +95,36 @@ def default_dt(model: Model, t_end: float = math.inf) -> float:
         The step, scene units of time.
     """
     T = model.shortest_period()
-    dt = T / _DEFAULT_STEPS_PER_PERIOD if math.isfinite(T) else 1e-2
+    steps = (NEAR_ONE_STEPS_PER_PERIOD if smallest_exponent(model) < NEAR_ONE_EXPONENT
+             else _DEFAULT_STEPS_PER_PERIOD)
+    dt = T / steps if math.isfinite(T) else 1e-2
     if is_forced(model):
         dt = min(dt, forced_dt_limit(model))
     dt = min(dt, t_end / 100)
     if math.isfinite(t_end):
         dt = t_end / math.ceil(t_end / dt * (1 - 1e-12))
     return dt
+
+
+def smallest_exponent(model: Model) -> float:
+    """The smallest contact exponent n of the chain's contacts and walls (inf: none).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene.
+
+    Returns
+    -------
+    float
+        Dimensionless.
+    """
+    n = [float(x) for x in model.n]
+    if model.features.left_wall:
+        n.append(float(model.walls[2]))
+    if model.features.right_wall:
+        n.append(float(model.walls[5]))
+    return min(n, default=math.inf)
 
 
 def check_dt(model: Model, dt: float) -> None:
@@ -110,13 +149,66 @@ def check_dt(model: Model, dt: float) -> None:
         raise SimulationError(
             f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
             f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
-            f"use dt <= {T / 50:.3g} for accuracy")
+            f"use dt <= {T / ACCURACY_STEPS_PER_PERIOD:.3g} for accuracy")
     rate = dashpot_rate(model) if is_forced(model) else 0.0
     if model.features.damping == DAMPING_LINEAR and dt * rate >= 2.0:
         raise SimulationError(
             f"run.dt: {dt:g} is too large for the strongest dashpot (relaxation time "
             f"m_eff/c = {1 / rate:.4g}): the step is unstable from 2 m_eff/c = {2 / rate:.4g} "
-            f"on; use dt <= {1 / (40 * rate):.3g} for accuracy")
+            f"on; use dt <= {1 / (ACCURACY_STEPS_PER_RELAXATION * rate):.3g} for accuracy")
+
+
+def accuracy_bound(model: Model) -> tuple[float, str]:
+    """The largest Verlet step run.dt may take without run.accept_inaccurate_dt.
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+
+    Returns
+    -------
+    (float, str)
+        The bound (scene units of time; ``inf`` when nothing bounds it) and what
+        sets it, in words for a message.
+    """
+    T = model.shortest_period()
+    bound, why = math.inf, ""
+    if math.isfinite(T):
+        bound = T / ACCURACY_STEPS_PER_PERIOD
+        why = f"1/{ACCURACY_STEPS_PER_PERIOD} of the shortest contact time {T:.4g}"
+    rate = dashpot_rate(model) if is_forced(model) else 0.0
+    if model.features.damping == DAMPING_LINEAR and rate > 0.0:
+        by_dashpot = 1.0 / (ACCURACY_STEPS_PER_RELAXATION * rate)
+        if by_dashpot < bound:
+            bound = by_dashpot
+            why = (f"1/{ACCURACY_STEPS_PER_RELAXATION} of the strongest dashpot's relaxation "
+                   f"time m_eff/c = {1 / rate:.4g}")
+    return bound, why
+
+
+def check_accuracy(model: Model, dt: float) -> None:
+    """Refuse a Verlet step above :func:`accuracy_bound` (SimulationError naming run.dt).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+    dt : float
+        The step the scene asks for, scene units of time.
+
+    Raises
+    ------
+    SimulationError
+        When ``dt`` exceeds the accuracy bound; the message gives the bound and
+        run.accept_inaccurate_dt.
+    """
+    bound, why = accuracy_bound(model)
+    if dt > bound:
+        raise SimulationError(
+            f"run.dt: {dt:g} is above the accuracy bound {bound:.3g} ({why}), where the "
+            f"energy ledger is no longer trusted; use run.dt <= {bound:.3g}, or set "
+            f"run.accept_inaccurate_dt: true to run it anyway")
 
 
 def _drift_coefficients(model: Model, dt: float):
