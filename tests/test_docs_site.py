@@ -16,6 +16,7 @@ import ast
 import importlib.util
 import os
 import re
+import shutil
 import subprocess
 import sys
 from html.parser import HTMLParser
@@ -396,3 +397,54 @@ def test_docs_extra_holds_what_the_build_imports():
     missing = {m: providers.get(m) for m in modules
                if not {canonicalize_name(d) for d in providers.get(m, [m])} & installed}
     assert not missing, f"imported by the site build, not installed by [docs]: {missing}"
+
+
+def _chromium() -> str | None:
+    return next(filter(None, map(shutil.which, ("chromium", "chromium-browser",
+                                                 "google-chrome"))), None)
+
+
+def _dom(page: Path, width: int = 1280) -> str:
+    """The DOM of ``page`` after its scripts ran, in headless Chromium with every
+    host name unresolvable (no network)."""
+    done = subprocess.run([_chromium(), "--headless", "--no-sandbox", "--disable-gpu",
+                           "--host-resolver-rules=MAP * ~NOTFOUND", f"--window-size={width},1000",
+                           "--virtual-time-budget=10000", "--dump-dom", page.as_uri()],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout
+
+
+@needs_docs
+@pytest.mark.skipif(_chromium() is None, reason="needs headless Chromium (apt-get install chromium)")
+def test_browser_renders_maths_offline_and_fits_the_scene_tables(site):
+    """In a browser without network: every arithmatex element of the theory page is
+    typeset by KaTeX without error, and no scene-reference table is wider than the
+    text column (the table frame would clip it)."""
+    theory = _dom(site / "theory" / "index.html")
+    spans = theory.count('class="arithmatex"')
+    assert spans > 100
+    assert theory.count('class="katex"') == spans, "maths left as raw TeX"
+    assert theory.count('class="katex-display"') == theory.count('<div class="arithmatex"') > 5
+    assert "katex-error" not in theory
+    # a copy of the page that records, once laid out, how many tables overflow their frame
+    page = site / "reference" / "scene" / "index.html"
+    probe = page.with_name("probe.html")
+    # (after load: Material wraps the tables in their scrolling frame from its script)
+    probe.write_text(page.read_text().replace("</body>", """<script>
+    window.addEventListener("load", () => setTimeout(() => {
+      const text = document.querySelector("article").getBoundingClientRect();
+      const tables = [...document.querySelectorAll("article table")];
+      const wide = tables.filter(t => t.scrollWidth > t.clientWidth + 1
+                                      || t.getBoundingClientRect().right > text.right + 1);
+      document.body.setAttribute("data-tables", tables.length);
+      document.body.setAttribute("data-overflowing", wide.length);
+    }, 100));
+    </script></body>"""))
+    try:
+        for width in (1280, 1024):
+            dom = _dom(probe, width)
+            assert int(re.search(r'data-tables="(\d+)"', dom).group(1)) == 8
+            assert re.search(r'data-overflowing="(\d+)"', dom).group(1) == "0", width
+    finally:
+        probe.unlink()
