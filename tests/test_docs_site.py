@@ -2,7 +2,13 @@
 
 - ``test_site_builds_strictly`` runs ``mkdocs build --strict`` (warnings, broken
   relative links and anchors, pages left out of the nav are errors); the build
-  runs every tutorial under docs/tutorials/ and fails if one fails.
+  runs every tutorial under docs/tutorials/, with no time limit (a cold numba
+  compile takes minutes), and fails if one fails. The built site is shared by the
+  tests that read it: no page loads anything from the network (KaTeX and fonts are
+  bundled), the API page shows no raw Sphinx role nor private base, every scene
+  field is a whole readable row, the landing page has a figure and a 5-minute path,
+  and (with headless Chromium) the maths is typeset offline and the scene tables fit.
+- ``[docs]`` installs every module the tutorials and docs_build/ import.
 - The scene reference must list every field of the scene schema (found here by an
   independent recursive walk of the JSON Schema), the CLI reference every option.
 - docs/ and README.md must describe the engine as it is: no wording that tells
