@@ -32,6 +32,11 @@ import pytest
 
 import granular_chain
 
+try:
+    import fcntl
+except ImportError:  # not POSIX: each test process builds its own copy of the site
+    fcntl = None
+
 ROOT = Path(__file__).resolve().parents[1]
 #: Where the tested granular_chain lives (the tutorials import that copy, whose
 #: compiled kernels the other tests share).
@@ -150,6 +155,16 @@ needs_docs = pytest.mark.skipif(
     reason="needs the [docs] extra (mkdocs, mkdocs-material, mkdocstrings)")
 
 
+def _build(site: Path) -> None:
+    """``mkdocs build --strict`` into ``site``; its stderr in ``site``.failed if it fails."""
+    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q",
+                           "--site-dir", str(site)], cwd=ROOT, capture_output=True, text=True,
+                          env={**os.environ, "NO_MKDOCS_2_WARNING": "1",
+                               "GRANULAR_CHAIN_TUTORIAL_PATH": PACKAGE_PARENT})
+    if done.returncode != 0:
+        site.with_suffix(".failed").write_text(done.stderr[-5000:] or f"exit {done.returncode}")
+
+
 @pytest.fixture(scope="module")
 def site(tmp_path_factory) -> Path:
     """The site built once by ``mkdocs build --strict`` (it runs every tutorial).
@@ -157,13 +172,21 @@ def site(tmp_path_factory) -> Path:
     No time limit: the tutorials compile kernels when numba's cache is cold
     (minutes on a loaded machine); they import the tested copy of the package
     (GRANULAR_CHAIN_TUTORIAL_PATH), whose kernels the other tests have cached.
+    Under pytest-xdist the workers of one run share one build (the first to ask
+    builds it under a lock, the others wait and read it).
     """
-    site = tmp_path_factory.mktemp("docs") / "site"
-    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q",
-                           "--site-dir", str(site)], cwd=ROOT, capture_output=True, text=True,
-                          env={**os.environ, "NO_MKDOCS_2_WARNING": "1",
-                               "GRANULAR_CHAIN_TUTORIAL_PATH": PACKAGE_PARENT})
-    assert done.returncode == 0, done.stderr[-5000:]
+    if os.environ.get("PYTEST_XDIST_WORKER") and fcntl is not None:
+        shared = tmp_path_factory.getbasetemp().parent  # one folder per run, all workers
+        with open(shared / "docs-site.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            site = shared / "docs-site"
+            if not site.exists() and not site.with_suffix(".failed").exists():
+                _build(site)
+    else:
+        site = tmp_path_factory.mktemp("docs") / "site"
+        _build(site)
+    failed = site.with_suffix(".failed")
+    assert not failed.exists(), failed.read_text()
     return site
 
 
@@ -423,7 +446,7 @@ def _dom(page: Path, width: int = 1280) -> str:
 
 @needs_docs
 @pytest.mark.skipif(_chromium() is None, reason="needs headless Chromium (apt-get install chromium)")
-def test_browser_renders_maths_offline_and_fits_the_scene_tables(site):
+def test_browser_renders_maths_offline_and_fits_the_scene_tables(site, tmp_path):
     """In a browser without network: every arithmatex element of the theory page is
     typeset by KaTeX without error, and no scene-reference table is wider than the
     text column (the table frame would clip it)."""
@@ -434,10 +457,12 @@ def test_browser_renders_maths_offline_and_fits_the_scene_tables(site):
     assert theory.count('class="katex-display"') == theory.count('<div class="arithmatex"') > 5
     assert "katex-error" not in theory
     # a copy of the page that records, once laid out, how many tables overflow their frame
+    # (a copy outside the site, its relative links resolved against the page's folder;
+    # measured after load: Material wraps the tables in their frame from its script)
     page = site / "reference" / "scene" / "index.html"
-    probe = page.with_name("probe.html")
-    # (after load: Material wraps the tables in their scrolling frame from its script)
-    probe.write_text(page.read_text().replace("</body>", """<script>
+    probe = tmp_path / "probe.html"
+    probe.write_text(page.read_text().replace(
+        "<head>", f'<head><base href="{page.parent.as_uri()}/">', 1).replace("</body>", """<script>
     window.addEventListener("load", () => setTimeout(() => {
       const text = document.querySelector("article").getBoundingClientRect();
       const tables = [...document.querySelectorAll("article table")];
@@ -447,10 +472,7 @@ def test_browser_renders_maths_offline_and_fits_the_scene_tables(site):
       document.body.setAttribute("data-overflowing", wide.length);
     }, 100));
     </script></body>"""))
-    try:
-        for width in (1280, 1024):
-            dom = _dom(probe, width)
-            assert int(re.search(r'data-tables="(\d+)"', dom).group(1)) == 8
-            assert re.search(r'data-overflowing="(\d+)"', dom).group(1) == "0", width
-    finally:
-        probe.unlink()
+    for width in (1280, 1024):
+        dom = _dom(probe, width)
+        assert int(re.search(r'data-tables="(\d+)"', dom).group(1)) == 8
+        assert re.search(r'data-overflowing="(\d+)"', dom).group(1) == "0", width
