@@ -11,6 +11,7 @@ published without units.
 
 from __future__ import annotations
 
+import html
 from pathlib import Path
 from typing import Iterator
 
@@ -220,13 +221,19 @@ def _cell(value) -> str:
     return "`" + text.replace("|", "\\|") + "`"
 
 
+def field_cell(path: str) -> str:
+    """A dotted path as inline code that a narrow column breaks after a dot only
+    (``<wbr>`` adds no character: the path copies as written)."""
+    return f'<code class="gc-field">{path.replace(".", ".<wbr>")}</code>'
+
+
 def _row(schema, path, prop, required, examples) -> str:
     units = prop.get("units", UNITS.get(path))
     if units is None:
         raise MissingEntry(f"scene field {path}: no units (add it to docs_build/scene_reference.py UNITS)")
     if path in examples:
         value, source = examples[path]
-        example = f"{value} ({source})"
+        example = f"{value}<br>({source})"
     elif path in EXAMPLES:
         example = _cell(EXAMPLES[path])
     elif prop.get("default") is not None:
@@ -234,12 +241,19 @@ def _row(schema, path, prop, required, examples) -> str:
     else:
         raise MissingEntry(f"scene field {path}: no example (set it in a scenario or EXAMPLES)")
     default = "required" if required else _cell(prop.get("default"))
-    description = " ".join(prop.get("description", "").split()).replace("|", "\\|")
-    return (f"| `{path}` | {type_text(schema, prop).replace('|', '&#124;')} | {default} | "
+    # escaped: a description's "<name>" is text, not an HTML tag that would swallow the row
+    description = html.escape(" ".join(prop.get("description", "").split()), quote=False)
+    description = description.replace("|", "\\|")
+    return (f"| {field_cell(path)} | {type_text(schema, prop).replace('|', '&#124;')} | {default} | "
             f"{units} | {description} | {example} |")
 
 
 HEADER = "| field | type | default | units | description | example |\n|---|---|---|---|---|---|"
+
+
+def _anchor(top: str) -> str:
+    """The heading id mkdocs gives a section (``## `granules` `` -> ``granules``)."""
+    return "top-level" if top == "scene" else top
 
 
 def render() -> str:
@@ -250,8 +264,15 @@ def render() -> str:
     for path, prop, required in walk(schema):
         top = path.split(".")[0] if "." in path else "scene"
         groups.setdefault(top, []).append(_row(schema, path, prop, required, examples))
+    sections = " · ".join(f"[{'top level' if top == 'scene' else top}](#{_anchor(top)})"
+                          for top in groups)
     lines = [
+        # the six-column tables take the page's whole width: no table-of-contents
+        # sidebar, whose sections are linked below the title instead
+        "---", "hide:", "  - toc", "---", "",
         "# Scene reference",
+        "",
+        f"Sections: {sections} · [seeded distributions](#seeded-distributions).",
         "",
         "A scene is a YAML file validated by the schema below (`granular-chain schema` prints it",
         "as JSON Schema). This page is generated from that schema when the site is built:",
