@@ -202,8 +202,7 @@ def test_failed_writer_leaves_nothing(work, monkeypatch):
     monkeypatch.setattr(summary, "write_summary", broken)
     with_sentinel(work)
     before = snapshot(work)
-    with pytest.raises(OSError):
-        run("--out", "r")
+    assert run("--out", "r") == 2  # said in one line (tests/test_hangs_input.py)
     assert snapshot(work) == before
 
 

@@ -717,7 +717,9 @@ class VerletRun:
             raise RuntimeError("internal error: the Verlet kernel took no step")
         self.opening = 0
         self.steps += taken
-        self.t_now = self.t_end if self.short_taken else self.steps * self.plan.dt
+        # the whole steps of the plan end at t_end itself (steps * dt may be an ulp off)
+        ends = self.short_taken or (self.steps == self.plan.steps and not self.plan.last_dt)
+        self.t_now = self.t_end if ends else self.steps * self.plan.dt
         if self.bar is not None:
             self.bar.update(taken)
             self.bar.set_postfix_str(f"t = {self.t_now:.4g} / {self.t_end:g}", refresh=False)
