@@ -172,7 +172,7 @@ def test_sweep_whose_every_point_fails_exits_1(tmp_path, capsys):
 
 
 def test_quiet_run_still_says_why_it_failed(tmp_path, capsys):
-    scene = _scene(tmp_path, TINY.replace("t_end: 1.0", "t_end: 5.0\n  dt: 0.1\n"
+    scene = _scene(tmp_path, TINY.replace("t_end: 1.0", "t_end: 5.0\n"
                                           "  energy_tolerance: 1.0e-300"))
     code = main(["run", str(scene), "--quiet", "--out", str(tmp_path / "out")])
     line = _one_line(capsys.readouterr().err)
