@@ -688,7 +688,7 @@ class Scene(_Strict):
                    ("output.checkpoint_every", self.output.checkpoint_every is not None,
                     "a staged run writes no checkpoint (--restart does not continue it)"),
                    ("output.thermo", self.output.thermo is not None,
-                    "a staged run writes no thermo log")]
+                    "a staged run writes a thermo line after each 1/20 of t_end")]
         for side in ("left", "right"):
             wall = getattr(self.walls, side)
             refused.append((f"walls.{side}.motion", wall is not None and wall.motion is not None,
