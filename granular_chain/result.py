@@ -322,12 +322,12 @@ class Result:
     def ledger_frame(self):
         """The energy ledger as a ``pandas.DataFrame`` indexed by frame time ``t``, columns
         kinetic, potential, coulomb, viscous, contact_dissipated, wall_work, body_work,
-        balance (the columns of energy.csv).
+        stage_work, balance (the columns of energy.csv).
 
         Returns
         -------
         pandas.DataFrame
-            Shape (F, 8), scene units of energy.
+            Shape (F, 9), scene units of energy.
         """
         pd = _need("pandas", "analysis", "Result.ledger_frame")
         led = self.energy

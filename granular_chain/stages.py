@@ -153,7 +153,13 @@ class StageFrames:
 
     def write_frame(self, frame: Frame) -> None:
         """Map one of the stage's frames onto the run and record it (the stage's first
-        frame only sets the offsets, after stage 0)."""
+        frame only sets the offsets, after stage 0).
+
+        Parameters
+        ----------
+        frame : Frame
+            One of the stage's frames, on its own clock and ledger (scene units).
+        """
         if self.kinetic_start is None:
             self.kinetic_start = float(frame.kinetic)
             self.duration = self.t_end - self.t0
@@ -165,7 +171,19 @@ class StageFrames:
         self.last = mapped._replace(x=None, v=None, f=None)
 
     def mapped(self, frame: Frame) -> Frame:
-        """``frame`` (on the stage's clock and ledger) on the run's."""
+        """``frame`` (on the stage's clock and ledger) on the run's.
+
+        Parameters
+        ----------
+        frame : Frame
+            One of the stage's frames (scene units).
+
+        Returns
+        -------
+        Frame
+            The same state at the run's time, step count and ledger (eq. (L)), with
+            the stage's index.
+        """
         b = self.before
         t = self.t_end if frame.t == self.duration else self.t0 + frame.t
         if b is None:
@@ -176,7 +194,13 @@ class StageFrames:
                               stage_work=put_in, stage=self.k, **carried)
 
     def close(self, result) -> None:
-        """Nothing to close: the run's log is closed once, after the last stage."""
+        """Nothing to close: the run's log is closed once, after the last stage.
+
+        Parameters
+        ----------
+        result : Result
+            The stage's Result (unused).
+        """
 
 
 @dataclass
