@@ -302,11 +302,13 @@ def _combine(scene: Scene, log: FrameLog, done: _Progress, wall: float) -> Resul
         message = (f"stage {k} ({stage['name']}, from t = {stage['t_start']:.12g}; its times "
                    f"counted from its start): {last.message}")
     info = {**last.info, "stages": done.records}
-    info.pop("warnings", None)
+    for name in ("warnings", "frames", "frames_kept"):  # (the last stage's own)
+        info.pop(name, None)
     if done.warnings:
         info["warnings"] = done.warnings
     if not log.keep:
         info["frames"] = log.count
+        info["frames_kept"] = "first and last (the others were streamed to the writers)"
     t = log.array("t")
     return Result(t=t, x=log.array("x"), v=log.array("v"), f=log.array("f"), energy=energy,
                   status=last.status, message=message, steps=done.steps, wall_time=wall,
