@@ -2,7 +2,8 @@
 
 scenarios/settle_strike.yaml: a column of 8 Hertz spheres settles on a wall under
 gravity (stage 0, t = 0 .. 400), then its top granule is struck (stage 1: v_7 set to
--0.3) and the run goes on to t = 460.
+-0.3) and the run goes on to t = 460. Both steppers (the event stepper with frames
+every 2 time units).
 """
 
 import copy
@@ -22,8 +23,13 @@ SCENE = Path(__file__).resolve().parents[1] / "scenarios" / "settle_strike.yaml"
 STRIKE = -0.3  # the strike stage's velocity of granule 7
 
 
-def _data():
-    return read_scene_data(SCENE)
+def _data(stepper="verlet"):
+    data = read_scene_data(SCENE)
+    if stepper == "event":
+        data["run"]["stepper"] = "event"
+        del data["run"]["dt"]
+        data["output"] = {"dt": 2.0}
+    return data
 
 
 def _unstaged(data, t_end):
@@ -34,22 +40,27 @@ def _unstaged(data, t_end):
     return data
 
 
-@pytest.fixture(scope="module")
-def staged():
-    return simulate(scene_from_dict(_data(), str(SCENE)), progress=False)
+@pytest.fixture(scope="module", params=["verlet", pytest.param("event", marks=pytest.mark.slow)])
+def stepper(request):
+    return request.param
 
 
 @pytest.fixture(scope="module")
-def by_hand(tmp_path_factory):
+def staged(stepper):
+    return simulate(scene_from_dict(_data(stepper), str(SCENE)), progress=False)
+
+
+@pytest.fixture(scope="module")
+def by_hand(stepper, tmp_path_factory):
     """The two runs a user makes without stages: settle to t = 400; then from its
     final state (an .npz written by hand, granule 7's velocity set), the wall gap
     measured from that state (the wall stays at x = 0), run for 60."""
-    first = simulate(scene_from_dict(_unstaged(_data(), 400.0)), progress=False)
+    first = simulate(scene_from_dict(_unstaged(_data(stepper), 400.0)), progress=False)
     v = first.v_final.copy()
     v[7] = STRIKE
     npz = tmp_path_factory.mktemp("by_hand") / "settled.npz"
     np.savez(npz, x=first.x_final, v=v)
-    data = _unstaged(_data(), 60.0)
+    data = _unstaged(_data(stepper), 60.0)
     g = data["granules"]
     del g["gap"], g["velocity"]
     g["state"] = {"file": str(npz)}
@@ -58,10 +69,11 @@ def by_hand(tmp_path_factory):
     return first, second
 
 
-def test_staged_run_equals_the_two_runs_by_hand_bit_for_bit(staged, by_hand):
+def test_staged_run_equals_the_two_runs_by_hand_bit_for_bit(stepper, staged, by_hand):
     first, second = by_hand
     assert staged.status == Status.T_END and first.status == second.status == Status.T_END
-    assert staged.t_final == 460.0 and staged.steps == first.steps + second.steps == 46000
+    assert staged.t_final == 460.0 and staged.steps == first.steps + second.steps
+    assert staged.stepper == stepper and (stepper == "event" or staged.steps == 46000)
     boundary = int(np.flatnonzero(staged.t == 400.0)[0])
     assert np.array_equal(staged.x[boundary], first.x_final)
     assert np.array_equal(staged.v[boundary], first.v_final)  # the frame before the strike
@@ -73,7 +85,7 @@ def test_staged_run_equals_the_two_runs_by_hand_bit_for_bit(staged, by_hand):
     assert staged.x_final[7] < first.x_final[7]  # (the strike moved the top granule)
 
 
-def test_ledger_runs_on_across_the_strike(staged, by_hand):
+def test_ledger_runs_on_across_the_strike(stepper, staged, by_hand):
     """The strike's kinetic energy enters as stage_work; the run's balance after it is
     the second run's own plus the balance at the strike, to roundoff."""
     first, second = by_hand
@@ -88,9 +100,10 @@ def test_ledger_runs_on_across_the_strike(staged, by_hand):
     expected = second.energy.balance[1:] + led.balance[boundary]
     roundoff = np.max(np.abs(after - expected)) / led.scale
     assert roundoff < 1e-14, roundoff
-    # the run's own error is the Verlet error of the two stages (dt = 0.01)
-    assert led.balance_error < 1e-5
-    assert abs(led.balance[boundary]) / led.scale < 1e-6
+    # the run's own error: Verlet's of the two stages (dt = 0.01), the event stepper's
+    # to roundoff
+    assert led.balance_error < (1e-5 if stepper == "verlet" else 1e-13), led.balance_error
+    assert abs(led.balance[boundary]) / led.scale < (1e-6 if stepper == "verlet" else 1e-14)
     stages = staged.info["stages"]
     assert [(s["name"], s["t_start"], s["t_end"]) for s in stages] == [
         ("settle", 0.0, 400.0), ("strike", 400.0, 460.0)]
