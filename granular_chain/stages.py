@@ -48,6 +48,7 @@ from typing import Callable, Optional, Sequence
 import numpy as np
 
 from .frames import Frame, FrameLog
+from .interrupts import stop_signals
 from .result import TERMS_ADDED, EnergyLedger, Event, Result, Status
 from .scene import InitialState, Scene
 
@@ -243,17 +244,20 @@ def run_stages(scene: Scene, run_one: Callable, writers: Sequence = (),
     log = FrameLog(list(writers), keep=keep_frames, background=bool(writers))
     done, first, x, v = _Progress(), None, None, None
     start = _time.perf_counter()
+    # (one stop request for every stage, shared by their runs: a signal between two
+    # stages ends the next one at its start, with status interrupted)
     try:
-        for k, stage in enumerate(scene.run.stages):
-            t0 = scene.run.stages[k - 1].t_end if k else 0.0
-            adapter = StageFrames(log, k, t0, stage.t_end, done.lasts[-1] if k else None)
-            r = run_one(stage_scene(scene, k, x, v, first), [adapter])
-            if k == 0:
-                first = r.model
-            _add(done, k, stage, t0, r, adapter)
-            x, v = r.x_final, r.v_final
-            if r.status != Status.T_END:
-                break
+        with stop_signals():
+            for k, stage in enumerate(scene.run.stages):
+                t0 = scene.run.stages[k - 1].t_end if k else 0.0
+                adapter = StageFrames(log, k, t0, stage.t_end, done.lasts[-1] if k else None)
+                r = run_one(stage_scene(scene, k, x, v, first), [adapter])
+                if k == 0:
+                    first = r.model
+                _add(done, k, stage, t0, r, adapter)
+                x, v = r.x_final, r.v_final
+                if r.status != Status.T_END:
+                    break
     finally:
         log.finish()
     result = _combine(scene, log, done, _time.perf_counter() - start)
