@@ -8,6 +8,7 @@ every 2 time units).
 
 import copy
 import json
+import signal
 from pathlib import Path
 
 import h5py
@@ -171,3 +172,28 @@ def test_restart_of_a_staged_scene_is_refused(tmp_path, capsys):
     assert main(["run", str(SCENE), "--restart", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "run.stages" in err and "not continued" in err
+
+
+class _InterruptAt:
+    """A frame writer that raises SIGINT at the first frame past time ``t``."""
+
+    def __init__(self, t):
+        self.t, self.sent = t, False
+
+    def write_frame(self, frame):
+        if frame.t > self.t and not self.sent:
+            self.sent = True
+            signal.raise_signal(signal.SIGINT)
+
+    def close(self, result):
+        pass
+
+
+def test_a_signal_in_the_second_stage_ends_the_run_there():
+    scene = scene_from_dict(_data(), str(SCENE))
+    r = simulate(scene, progress=False, writers=[_InterruptAt(402.0)], keep_frames=False)
+    assert r.status == Status.INTERRUPTED
+    assert 402.0 < r.t_final < 460.0 and r.t[-1] == r.t_final
+    stages = r.info["stages"]
+    assert [s["status"] for s in stages] == ["t_end", "interrupted"]
+    assert stages[1]["t_end"] == r.t_final and "stage 1 (strike" in r.message
