@@ -59,7 +59,9 @@ UNITS = {
     "run.stop_contact": "-", "run.max_steps": "steps", "run.energy_tolerance": "-",
     "run.check_dt": "-", "run.accept_inaccurate_dt": "-", "run.rtol": "-",
     "run.atol": "length, velocity (m, m/s)",
-    "run.max_events": "events",
+    "run.max_events": "events", "run.stages": "-",
+    "run.stages[].t_end": "time (s)", "run.stages[].name": "-",
+    "run.stages[].velocity": "velocity (m/s)", "run.stages[].velocity_add": "velocity (m/s)",
     "output.every": "steps", "output.dt": "time (s)", "output.trajectory": "-",
     "output.vtk": "-", "output.csv": "-", "output.events": "-", "output.plots": "-",
     "output.checkpoint_every": "steps", "output.thermo": "steps",
@@ -84,6 +86,8 @@ EXAMPLES = {
     "output.dt": 0.05,
     "output.checkpoint_every": 100000,
     "output.thermo": 1000,
+    "run.stages[].t_end": 400, "run.stages[].name": "settle",
+    "run.stages[].velocity": {7: -0.3}, "run.stages[].velocity_add": {0: 0.1},
     "contacts.damping.coefficient": 0.1, "contacts.damping.value": 0.8,
     "walls.left.motion.velocity": 0.05, "walls.right.motion.velocity": -0.05,
     "walls.left.motion.sine.amplitude": 0.01, "walls.right.motion.sine.amplitude": 0.01,
@@ -134,18 +138,32 @@ def _submodel(schema: dict, node: dict) -> dict | None:
 def walk(schema: dict, node: dict | None = None, prefix: str = "") -> Iterator[tuple[str, dict, bool]]:
     """Every field as (dotted path, property schema, required), depth first.
 
-    Models nested in a field (``granules.friction``) are descended into;
-    seeded distributions are not (see :func:`recipe_fields`).
+    Models nested in a field (``granules.friction``) are descended into, and so
+    are the models of a list of them (``run.stages``: its row, then its items'
+    fields as ``run.stages[].t_end``); seeded distributions are not (see
+    :func:`recipe_fields`).
     """
     node = schema if node is None else node
     required = set(node.get("required", ()))
     for name, prop in node.get("properties", {}).items():
         path = f"{prefix}{name}"
         sub = _submodel(schema, prop)
-        if sub is None:
-            yield path, prop, name in required
-        else:
+        items = _item_model(schema, prop)
+        if sub is not None:
             yield from walk(schema, sub, path + ".")
+        elif items is not None:
+            yield path, prop, name in required
+            yield from walk(schema, items, path + "[].")
+        else:
+            yield path, prop, name in required
+
+
+def _item_model(schema: dict, node: dict) -> dict | None:
+    """The model of a list-of-models property's items (possibly Optional), else None."""
+    for alt in _alternatives(node):
+        if alt.get("type") == "array" and "$ref" in alt.get("items", {}):
+            return _resolve(schema, alt["items"])
+    return None
 
 
 def recipe_fields(schema: dict) -> Iterator[tuple[str, dict, bool]]:
@@ -177,7 +195,9 @@ def type_text(schema: dict, node: dict) -> str:
             parts.append("seeded distribution")
             continue
         kind = alt.get("type")
-        if "const" in alt:
+        if "$ref" in alt:  # a list of models: their fields have rows of their own
+            parts.append("mapping (fields below)")
+        elif "const" in alt:
             parts.append(repr(alt["const"]))
         elif "enum" in alt:
             parts.append(" | ".join(repr(v) for v in alt["enum"]))

@@ -48,6 +48,11 @@ class Frame(NamedTuple):
     contact_dissipated, wall_work, body_work : float
         Energy dissipated so far by the contacts' dashpots, work done so far by
         moving walls and by body forces (0 in a scene without them).
+    stage_work : float
+        Energy put in so far by the velocity changes at stage starts (0 in a run
+        without ``run.stages``).
+    stage : int
+        Index of the stage the frame belongs to (0 in a run without stages).
     """
 
     step: int
@@ -63,13 +68,15 @@ class Frame(NamedTuple):
     contact_dissipated: float = 0.0
     wall_work: float = 0.0
     body_work: float = 0.0
+    stage_work: float = 0.0
+    stage: int = 0
 
     @property
     def balance(self) -> float:
         """The ledger's balance at this frame (:func:`granular_chain.result.ledger_balance`)."""
         return ledger_balance(self.kinetic, self.potential, self.coulomb, self.viscous,
                               self.contact_dissipated, self.wall_work, self.body_work,
-                              self.initial)
+                              self.initial, self.stage_work)
 
     @property
     def balance_error(self) -> float:
@@ -176,7 +183,7 @@ class FrameLog:
     """
 
     _FIELDS = ("step", "t", "x", "v", "f", "kinetic", "potential", "coulomb", "viscous",
-               *TERMS_ADDED)
+               *TERMS_ADDED, "stage")
     _VALUES = operator.attrgetter(*_FIELDS)  # a frame's kept values, in one call
     QUEUED = 4  #: frames that may wait for the writers' thread, at least
     QUEUED_BYTES = 16 * 2 ** 20  #: ... and more, up to 64, while they fit in this

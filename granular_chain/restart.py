@@ -111,6 +111,9 @@ def plan_restart(args, scene) -> RestartPlan:
         The folder cannot be continued with this scene.
     """
     source = Path(args.restart)
+    if scene.run.stages:
+        raise OutputError(f"--restart {source}: the scene has run.stages; a staged run "
+                          f"is not continued from a checkpoint: run it again")
     cwd = Path.cwd().resolve()
     if source.resolve() == cwd or source.resolve() in cwd.parents:
         raise OutputError(f"--restart {source}: is the current folder or contains it; run "

@@ -61,8 +61,8 @@ class Event:
 class EnergyLedger:
     """Energy bookkeeping at each output frame, all arrays of shape (F,).
 
-    ``initial + wall_work + body_work = kinetic + potential + coulomb + viscous
-    + contact_dissipated`` holds up to the integrator's error, reported as
+    ``initial + wall_work + body_work + stage_work = kinetic + potential + coulomb
+    + viscous + contact_dissipated`` holds up to the integrator's error, reported as
     :attr:`balance_error`.
 
     Attributes
@@ -84,6 +84,10 @@ class EnergyLedger:
         units of energy.
     body_work : ndarray
         Work done on the chain so far by body forces, sum_i f_i u_i (either sign).
+    stage_work : ndarray
+        Energy put in so far by the velocity changes at the starts of the stages of a
+        staged run (``run.stages``): the sum of their kinetic energy changes (either
+        sign; zeros in a run without stages).
     """
 
     kinetic: np.ndarray
@@ -97,6 +101,7 @@ class EnergyLedger:
     contact_dissipated: Optional[np.ndarray] = None
     wall_work: Optional[np.ndarray] = None
     body_work: Optional[np.ndarray] = None
+    stage_work: Optional[np.ndarray] = None
 
     def __post_init__(self):
         for name in TERMS_ADDED:
@@ -106,10 +111,10 @@ class EnergyLedger:
     @property
     def balance(self) -> np.ndarray:
         """kinetic + potential + coulomb + viscous + contact_dissipated - wall_work
-        - body_work - initial, shape (F,)."""
+        - body_work - stage_work - initial, shape (F,)."""
         return ledger_balance(self.kinetic, self.potential, self.coulomb, self.viscous,
                               self.contact_dissipated, self.wall_work, self.body_work,
-                              self.initial)
+                              self.initial, self.stage_work)
 
     @property
     def scale(self) -> float:
@@ -148,6 +153,7 @@ class EnergyLedger:
             "contact_dissipated": float(self.contact_dissipated[-1]),
             "wall_work": float(self.wall_work[-1]),
             "body_work": float(self.body_work[-1]),
+            "stage_work": float(self.stage_work[-1]),
             "initial": float(self.initial),
             "balance_error": float(self.balance[-1]),
             "balance_error_relative": float(self.balance[-1] / self.scale),
@@ -156,13 +162,13 @@ class EnergyLedger:
         return out
 
 
-#: Ledger terms of the dissipative contacts, body forces and driven walls (zeros
-#: when a scene has none of them).
-TERMS_ADDED = ("contact_dissipated", "wall_work", "body_work")
+#: Ledger terms of the dissipative contacts, driven walls, body forces and stage
+#: changes (zeros when a scene has none of them).
+TERMS_ADDED = ("contact_dissipated", "wall_work", "body_work", "stage_work")
 
 
 def ledger_balance(kinetic, potential, coulomb, viscous, contact_dissipated, wall_work,
-                   body_work, initial):
+                   body_work, initial, stage_work=0.0):
     """Energy balance of the ledger's terms (arrays or floats, energy units): zero for
     an exact run. Summed in this order everywhere (writers, streamed frames).
 
@@ -178,6 +184,9 @@ def ledger_balance(kinetic, potential, coulomb, viscous, contact_dissipated, wal
         Work done on the chain by moving walls and body forces, same units and shape.
     initial : float
         Kinetic plus elastic energy at t = 0, scene units of energy.
+    stage_work : float or numpy.ndarray
+        Energy put in by the stages' velocity changes (``run.stages``), same units
+        and shape (0 without stages).
 
     Returns
     -------
@@ -185,7 +194,7 @@ def ledger_balance(kinetic, potential, coulomb, viscous, contact_dissipated, wal
         The balance, scene units of energy, the shape of the terms.
     """
     return (kinetic + potential + coulomb + viscous - initial
-            + contact_dissipated - wall_work - body_work)
+            + contact_dissipated - wall_work - body_work - stage_work)
 
 
 @dataclass
@@ -313,12 +322,12 @@ class Result:
     def ledger_frame(self):
         """The energy ledger as a ``pandas.DataFrame`` indexed by frame time ``t``, columns
         kinetic, potential, coulomb, viscous, contact_dissipated, wall_work, body_work,
-        balance (the columns of energy.csv).
+        stage_work, balance (the columns of energy.csv).
 
         Returns
         -------
         pandas.DataFrame
-            Shape (F, 8), scene units of energy.
+            Shape (F, 9), scene units of energy.
         """
         pd = _need("pandas", "analysis", "Result.ledger_frame")
         led = self.energy

@@ -489,6 +489,38 @@ STEPPER_OPTIONS = {
 }
 
 
+#: Granule velocities given by index: {index: value}.
+SparseVelocity = dict[Annotated[int, BeforeValidator(_index_key)], Finite]
+
+
+class Stage(_Strict):
+    """One stage of a staged run (``run.stages``): the run goes on from the state the
+    stage before it ended in, changed as the stage says, until the stage's t_end.
+
+    Only granule velocities change at a stage's start, and only those listed; the
+    change's energy enters the ledger as ``stage_work``. The first stage runs the
+    scene as written from t = 0.
+    """
+
+    t_end: Positive = Field(..., description="The stage ends at this time (the run's "
+                            "clock, from t = 0 at the first stage's start); strictly "
+                            "greater than the stage before's.")
+    name: Optional[Annotated[str, BeforeValidator(_name)]] = Field(
+        None, description="A name for the stage, recorded in summary.json (default "
+        "stage<k>, k from 0).")
+    velocity: SparseVelocity = Field(
+        default_factory=dict, description="Velocities set at the stage's start, "
+        "{index: value} (e.g. {0: 0.5} strikes granule 0); the others keep theirs. "
+        "Not in the first stage (granules.velocity sets the start).")
+    velocity_add: SparseVelocity = Field(
+        default_factory=dict, description="Velocities added at the stage's start, "
+        "{index: change}, after run.stages[k].velocity. Not in the first stage.")
+
+    def changes(self) -> bool:
+        """Whether the stage changes the state at its start."""
+        return bool(self.velocity or self.velocity_add)
+
+
 class Run(_Strict):
     """How to step and when to stop (:data:`STEPPER_OPTIONS`: which fields belong to
     one stepper)."""
@@ -529,6 +561,34 @@ class Run(_Strict):
     rtol: Positive = Field(1e-12, description="Relative tolerance (event stepper, n != 2).")
     atol: Positive = Field(1e-14, description="Absolute tolerance (event stepper, n != 2).")
     max_events: Annotated[int, Int] = Field(1_000_000, ge=1, description="Event stepper: most events.")
+    stages: Optional[list[Stage]] = Field(
+        None, description="Run in stages, one after another in one run folder: each "
+        "goes on from the state the stage before ended in, with the velocities its "
+        "fields set or add, to its own t_end (e.g. settle under gravity, then strike). "
+        "run.t_end may be left out (it is the last stage's) or equal to it. Not with "
+        "run.stop conditions, moving walls, output.checkpoint_every or output.thermo; "
+        "granular-chain run --restart does not continue a staged run.", min_length=1)
+
+    @model_validator(mode="after")
+    def _stage_times(self) -> "Run":
+        """Stage ends strictly increasing; run.t_end, when given, the last stage's."""
+        if not self.stages:
+            return self
+        for k in range(1, len(self.stages)):
+            if not self.stages[k].t_end > self.stages[k - 1].t_end:
+                raise _FieldProblem(f"run.stages[{k}].t_end", (
+                    f"{self.stages[k].t_end:g} is not after the stage before's t_end "
+                    f"{self.stages[k - 1].t_end:g}: stage ends must increase strictly"))
+        first, last = self.stages[0], self.stages[-1].t_end
+        if first.changes():
+            raise _FieldProblem(f"run.stages[0].{'velocity' if first.velocity else 'velocity_add'}",
+                                "the first stage starts from the scene as written: give "
+                                "the starting velocities in granules.velocity")
+        if "t_end" in self.model_fields_set and self.t_end != last:
+            raise _FieldProblem("run.t_end", f"is {self.t_end:g} but the last stage ends at "
+                                f"{last:g}: leave run.t_end out, or make them equal")
+        self.__dict__["t_end"] = last  # (an assignment would validate the model again)
+        return self
 
 
 class Scene(_Strict):
@@ -607,6 +667,37 @@ class Scene(_Strict):
                                 f"is {self.run.stop_contact} but contacts are numbered 0..{n - 2}")
         if self.output.every is not None and self.output.dt is not None:
             raise _FieldProblem("output", "give either 'every' (steps) or 'dt' (time), not both")
+        return self
+
+    @model_validator(mode="after")
+    def _stages_fit_the_scene(self) -> "Scene":
+        """Stage granule indices in range; refuse what a staged run cannot continue
+        across a stage boundary (its clock restarts there for the stepper)."""
+        stages = self.run.stages
+        if not stages:
+            return self
+        n = self.granules.count
+        for k, stage in enumerate(stages):
+            for name in ("velocity", "velocity_add"):
+                for i in getattr(stage, name):
+                    if not 0 <= i < n:
+                        raise _FieldProblem(f"run.stages[{k}].{name}[{i}]",
+                                            f"granule index out of range 0..{n - 1}")
+        refused = [("run.stop", self.run.stop_conditions,
+                    "a staged run goes to each stage's t_end"),
+                   ("output.checkpoint_every", self.output.checkpoint_every is not None,
+                    "a staged run writes no checkpoint (--restart does not continue it)"),
+                   ("output.thermo", self.output.thermo is not None,
+                    "a staged run writes a thermo line after each 1/20 of t_end")]
+        for side in ("left", "right"):
+            wall = getattr(self.walls, side)
+            refused.append((f"walls.{side}.motion", wall is not None and wall.motion is not None,
+                            "a wall's motion is a function of time, not carried across "
+                            "stages"))
+        for path, given, why in refused:
+            if given:
+                raise _FieldProblem(path, f"is not available with run.stages: {why}; "
+                                    f"remove it, or run the stages as separate runs")
         return self
 
     @model_validator(mode="after")

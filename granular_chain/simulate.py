@@ -20,6 +20,7 @@ from .ledger import ledger_verdict
 from .model import Model
 from .result import Result
 from .scene import Scene
+from .stages import run_stages
 from .steppers.verlet.driver import (  # noqa: F401  (re-exported: benchmarks and tests)
     StepPlan,
     VerletRun,
@@ -116,7 +117,39 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     :data:`granular_chain.interrupts.CHUNK_SECONDS` with ``Status.INTERRUPTED``
     and the frames computed so far (in the main thread; elsewhere signals keep
     their default effect).
+
+    A scene with ``run.stages`` runs its stages one after another
+    (:mod:`granular_chain.stages`); ``thermo`` and ``checkpoint`` are not used
+    then, and ``resume`` is refused.
     """
+    if isinstance(scene, Scene) and scene.run.stages:
+        return _simulate_stages(scene, progress, writers, keep_frames, resume)
+    return _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint, resume)
+
+
+def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume) -> Result:
+    """:func:`simulate` of a scene with ``run.stages``: each stage one run, judged on
+    its own ledger, then the whole run on the continuous ledger."""
+    if resume is not None:
+        raise SimulationError("run.stages: a staged run cannot be continued from a "
+                              "checkpoint; run it again")
+    model = preflight(scene)  # the first stage's checks; each stage's run makes its own
+
+    def run_one(stage: Scene, stage_writers) -> Result:
+        return _simulate_one(stage, progress, stage_writers, False, None, None, None)
+
+    result = run_stages(scene, run_one, writers, keep_frames)
+    if scene.run.energy_tolerance is not None:
+        result.status, result.message = ledger_verdict(result, scene.run.energy_tolerance,
+                                                       "run.energy_tolerance")
+    result.scene = scene
+    result.model = model  # the first stage's: its walls and x0 are the run's (fixed in space)
+    return result
+
+
+def _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint,
+                  resume) -> Result:
+    """:func:`simulate` of one unstaged run (its parameters)."""
     model = preflight(scene)
     watch = NeighbourWatch(model.radius)
     log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))

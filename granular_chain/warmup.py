@@ -103,6 +103,7 @@ def _two_step_copy(scene):
     from .simulate import default_dt
 
     tiny = scene.model_copy(deep=True)
+    tiny.run.stages = None  # (the first stage's kernels are every stage's)
     model = build_model(scene)
     if scene.run.stepper == "verlet":
         dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)

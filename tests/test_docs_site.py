@@ -96,10 +96,14 @@ def _schema_paths(schema: dict) -> set[str]:
         for name, prop in model.get("properties", {}).items():
             subs = [target(a) for a in prop.get("anyOf", [prop])
                     if "properties" in target(a) and "distribution" not in target(a)["properties"]]
+            lists = [target(a["items"]) for a in prop.get("anyOf", [prop])
+                     if a.get("type") == "array" and "$ref" in a.get("items", {})]
             if subs:
                 yield from leaves(subs[0], f"{prefix}{name}.")
             else:
                 yield prefix + name
+            if lists:  # a list of models (run.stages): its items' fields too
+                yield from leaves(lists[0], f"{prefix}{name}[].")
 
     paths = set(leaves(schema, ""))
     for model in defs.values():

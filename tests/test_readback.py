@@ -251,7 +251,7 @@ def test_events_and_ledger_as_dataframes(run):
     assert led.index.name == "t" and np.array_equal(led.index.values, result.t)
     assert np.array_equal(led["balance"].values, result.energy.balance)
     assert list(led.columns) == ["kinetic", "potential", "coulomb", "viscous", "contact_dissipated",
-                                 "wall_work", "body_work", "balance"]
+                                 "wall_work", "body_work", "stage_work", "balance"]
 
 
 # ---------------------------------------------------------------- plots at any N

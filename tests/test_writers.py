@@ -165,7 +165,7 @@ def test_energy_csv_round_trips_the_ledger(run, tmp_path):
     paths = write_tables(result, tmp_path, scene)
     assert [p.name for p in paths] == ["energy.csv"]  # Verlet logs no events
     assert (tmp_path / "energy.csv").read_text().splitlines()[0] == \
-        "t,kinetic,potential,coulomb,viscous,contact_dissipated,wall_work,body_work,balance"
+        "t,kinetic,potential,coulomb,viscous,contact_dissipated,wall_work,body_work,stage_work,balance"
     table = np.genfromtxt(tmp_path / "energy.csv", delimiter=",", names=True)
     led = result.energy
     for name, ref in (("t", result.t), ("kinetic", led.kinetic), ("potential", led.potential),

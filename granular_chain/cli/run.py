@@ -89,12 +89,13 @@ class _Attached:
             self.writers.append(VTKFrames(folder, model, resume_frames=frames))
             self.streams.append(FRAME_DIR)
         path = folder / "thermo.csv"
-        if run.stepper == "verlet":
+        if run.stepper == "verlet" and not run.stages:
             from ..simulate import step_plan
             steps = step_plan(model, scene).steps
             self.thermo = ThermoLog(model, thermo_every(steps, out.thermo), path, echo,
                                     resume_lines=lines)
-        else:  # the event stepper hands its frames on as they come: thin them in time
+        else:  # the event stepper and a staged run hand their frames on as they come:
+            # thin them in time
             self.thermo = ThermoLog(model, 0, path, echo, dt=run.t_end / 20,
                                     resume_lines=lines)
             if resume is not None:
@@ -161,8 +162,10 @@ def _incomplete_reason(result, stop, missed: list[str]) -> str:
 
     parts = []
     if result.status == Status.INTERRUPTED:
+        again = ("run it again: a staged run is not continued" if result.info.get("stages")
+                 else "continue it with --restart")
         parts.append(f"interrupted by {stop.name or 'a signal'} at t = {result.t_final:.6g} "
-                     f"(continue it with --restart)")
+                     f"({again})")
     if missed:
         parts.append(f"interrupted while writing: {', '.join(missed)} not (fully) written")
     return "; ".join(parts)
@@ -294,7 +297,8 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                     attached.abandon()
                     raise
                 attached.thermo.close()
-                if result.status == Status.INTERRUPTED and out.exists() and restart is None:
+                if (result.status == Status.INTERRUPTED and out.exists() and restart is None
+                        and not scene.run.stages):  # (a staged run is not continued)
                     # the earlier run stays; this one is kept aside, to be continued
                     _write_outputs(result, folder.tmp, scene, stop)
                     kept = folder.keep(reason=_incomplete_reason(result, stop, []))

@@ -193,7 +193,8 @@ def plot_energy(result, path, scene=None) -> Path:
     ax.plot(t, led.coulomb, label="dissipated, Coulomb")
     ax.plot(t, led.viscous, label="dissipated, viscous")
     for name, label in (("contact_dissipated", "dissipated, contacts"),
-                        ("wall_work", "work done by walls"), ("body_work", "work done by body forces")):
+                        ("wall_work", "work done by walls"), ("body_work", "work done by body forces"),
+                        ("stage_work", "put in at stage starts")):
         if np.any(getattr(led, name) != 0.0):
             ax.plot(t, getattr(led, name), label=label)
     ax.plot(t, led.balance + led.initial, "k--", lw=1,

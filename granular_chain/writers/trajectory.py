@@ -17,8 +17,11 @@ dimensionless unit ``"1"``, physical ones SI):
 ``x``, ``v``, ``f`` (time, granule)
     Centre positions, velocities, net contact force (neighbours and walls).
 ``kinetic``, ``potential``, ``coulomb``, ``viscous``, ``contact_dissipated``, ``wall_work``,
-``body_work``, ``balance`` (time)
+``body_work``, ``stage_work``, ``balance`` (time)
     The energy ledger (the columns of energy.csv).
+``stage`` (time)
+    A staged run's (``run.stages``) stage index of each frame, 0 for the first
+    stage; only in the files of staged runs.
 ``mass``, ``radius``, ``friction_kinetic``, ``friction_static``, ``friction_viscous`` (granule)
     The per-granule values the run used (drawn values, for scenes with distributions).
 ``x_final``, ``v_final`` (granule); ``event_time``, ``event_kind``, ``event_index``,
@@ -80,8 +83,9 @@ LEDGER_FIELDS = {
     "contact_dissipated": "energy dissipated by the contacts' dashpots so far",
     "wall_work": "work done on the chain by moving walls so far",
     "body_work": "work done on the chain by body forces so far",
+    "stage_work": "energy put in by the velocity changes at stage starts so far",
     "balance": "kinetic + potential + coulomb + viscous + contact_dissipated - wall_work "
-               "- body_work - initial energy (integrator error)",
+               "- body_work - stage_work - initial energy (integrator error)",
 }
 _LEDGER_TERMS = tuple(name for name in LEDGER_FIELDS if name != "balance")
 # (granule,) arrays of the model: name -> (Model attribute, kind, long_name)
@@ -206,7 +210,9 @@ class _Block:
             raise ValueError(f"{h5.filename}: the chunks of {first.name} do not span a whole "
                              f"frame ({shape}); this file cannot be continued")
         self.rows, self.base, self.fill = shape[0], 0, 0
-        self.values = {name: np.zeros(shape) for name in names}
+        # (in the dataset's own type: a direct chunk write stores the bytes as they are)
+        self.values = {name: np.zeros(shape, dtype=ds.dtype)
+                       for name, ds in self.datasets.items()}
 
     def start_at(self, frames: int) -> None:
         """Continue after the first ``frames`` frames of the file (read back the
@@ -285,6 +291,8 @@ class TrajectoryWriter:
             # compiled (or loaded from the cache) here, not by the writers' thread mid-run
             _copy_frame(0, *rows, *(r[0] for r in rows))
             self._ledger = _Block(self._h5, ("time", *_LEDGER_TERMS))
+            # a staged run's stage index of each frame (run.stages)
+            self._stage = _Block(self._h5, ("stage",)) if "stage" in self._h5 else None
             if resume_frames is not None:
                 self._reopen(int(resume_frames))
         except BaseException:
@@ -312,8 +320,12 @@ class TrajectoryWriter:
                 del h5.attrs[name]
         for name in ("time", *FRAME_FIELDS, *_LEDGER_TERMS):
             h5[name].resize(frames, axis=0)
-        for block in (self._states, self._ledger):
+        for block in self._blocks():
             block.start_at(frames)
+
+    def _blocks(self) -> tuple:
+        """The blocks of growable variables, each written whole (see :class:`_Block`)."""
+        return (self._states, self._ledger) + ((self._stage,) if self._stage else ())
 
     def _create(self, scene, model, rows: int) -> None:
         """The variables, dimensions and attributes of a new file; ``rows``: frames in
@@ -335,6 +347,11 @@ class TrajectoryWriter:
             ds.dims[1].attach_scale(granule)
         for name in _LEDGER_TERMS:  # balance needs the initial energy: written by close()
             self._series(name)
+        if scene is not None and scene.run.stages:
+            stage = h5.create_dataset("stage", shape=(0,), maxshape=(None,), dtype="i4",
+                                      chunks=time.chunks)
+            stage.attrs.update(_attrs(self._units, "", "stage index (run.stages), 0 first"))
+            stage.dims[0].attach_scale(time)
         for name, values in granule_values(model).items():
             _, kind, text = _GRANULE_FIELDS[name]
             self._put(name, values, ("granule",), kind, text)
@@ -358,7 +375,8 @@ class TrajectoryWriter:
             ds.dims[i].attach_scale(self._h5[dim])
 
     def write_frame(self, t, x, v, f, kinetic, potential, coulomb, viscous,
-                    contact_dissipated=0.0, wall_work=0.0, body_work=0.0) -> None:
+                    contact_dissipated=0.0, wall_work=0.0, body_work=0.0, stage_work=0.0,
+                    stage=0) -> None:
         """Append one frame: time, state arrays of shape (N,) and the ledger terms
         (energy units; the last three are zero in a scene without dashpots, moving
         walls or body forces).
@@ -374,9 +392,11 @@ class TrajectoryWriter:
             Kinetic and elastic energy, scene units of energy.
         coulomb, viscous : float
             Energy dissipated so far by Coulomb friction and drag, scene units of energy.
-        contact_dissipated, wall_work, body_work : float
-            Energy dissipated by dashpots and work of moving walls and body forces
-            so far, scene units of energy (0 when absent).
+        contact_dissipated, wall_work, body_work, stage_work : float
+            Energy dissipated by dashpots and work of moving walls, body forces and
+            stage changes so far, scene units of energy (0 when absent).
+        stage : int
+            The frame's stage index (written in the files of staged runs only).
         """
         states, ledger = self._states, self._ledger
         values = states.values
@@ -385,24 +405,28 @@ class TrajectoryWriter:
         j, series = ledger.fill, ledger.values
         series["time"][j] = t
         for name, value in zip(_LEDGER_TERMS, (kinetic, potential, coulomb, viscous,
-                                               contact_dissipated, wall_work, body_work)):
+                                               contact_dissipated, wall_work, body_work,
+                                               stage_work)):
             series[name][j] = value
-        states.fill += 1
-        ledger.fill += 1
-        if states.fill == states.rows or ledger.fill == ledger.rows:
+        blocks = self._blocks()
+        if self._stage is not None:
+            self._stage.values["stage"][self._stage.fill] = stage
+        for block in blocks:
+            block.fill += 1
+        if any(block.fill == block.rows for block in blocks):
             self._write_blocks()
 
     def _write_blocks(self) -> None:
         """Write both blocks (so every variable has the same frames), going on with
         the next block of each that is full."""
-        for block in (self._states, self._ledger):
+        for block in self._blocks():
             block.write()
             if block.fill == block.rows:
                 block.next_block()
 
     def flush(self) -> None:
         """Write the frames gathered so far to the file (and the file to the system)."""
-        if self._states.fill or self._ledger.fill:
+        if any(block.fill for block in self._blocks()):
             self._write_blocks()
         self._h5.flush()
 
@@ -421,8 +445,8 @@ class TrajectoryWriter:
         step = 2 ** 16  # the ledger is read back in slices: memory stays bounded
         for a in range(0, self.frames, step):
             b = min(a + step, self.frames)
-            terms = (h5[name][a:b] for name in _LEDGER_TERMS)
-            bal[a:b] = ledger_balance(*terms, result.energy.initial)
+            terms = {name: h5[name][a:b] for name in _LEDGER_TERMS}
+            bal[a:b] = ledger_balance(**terms, initial=result.energy.initial)
         self._put("x_final", result.x_final, ("granule",), "length", "final granule position")
         self._put("v_final", result.v_final, ("granule",), "velocity", "final granule velocity")
         self._write_events(result.events)
@@ -478,7 +502,8 @@ class TrajectoryFrames:
     def write_frame(self, frame) -> None:
         self.writer.write_frame(frame.t, frame.x, frame.v, frame.f, frame.kinetic,
                                 frame.potential, frame.coulomb, frame.viscous,
-                                frame.contact_dissipated, frame.wall_work, frame.body_work)
+                                frame.contact_dissipated, frame.wall_work, frame.body_work,
+                                frame.stage_work, frame.stage)
 
     def close(self, result=None) -> None:
         """With the run's Result: the final state, events and status; without
@@ -519,7 +544,8 @@ def write_trajectory(result, folder: Path, scene=None) -> Path:
         for i in range(result.t.size):
             w.write_frame(result.t[i], result.x[i], result.v[i], result.f[i], led.kinetic[i],
                           led.potential[i], led.coulomb[i], led.viscous[i],
-                          led.contact_dissipated[i], led.wall_work[i], led.body_work[i])
+                          led.contact_dissipated[i], led.wall_work[i], led.body_work[i],
+                          led.stage_work[i])
         w.close(result)
     return w.path
 
