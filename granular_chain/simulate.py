@@ -81,7 +81,10 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     scene : Scene
         A validated scene (see :func:`granular_chain.load_scene`).
     progress : bool, optional
-        Show a progress bar (default: only on a terminal, for runs longer than ~2 s).
+        A progress bar of simulated time t / t_end with an ETA, for both steppers:
+        True shows it (on standard error; a widget in a Jupyter notebook), False
+        never; None (default) shows it in a Jupyter notebook only
+        (:func:`granular_chain.progress.progress_bar`).
     writers : sequence of FrameWriter, optional
         Attached to the run: each output frame is handed to them as the run
         goes (:class:`granular_chain.frames.FrameWriter`); every frame is
@@ -164,7 +167,7 @@ def _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint,
 
             result = simulate_events(event_options(scene), model, log=log, resume=resume,
                                      checkpoint=synced if checkpoint else None,
-                                     checkpoint_every=every or 0)
+                                     checkpoint_every=every or 0, progress=progress)
         else:
             run = VerletRun(scene, model, progress, log=log, thermo=thermo, checkpoint=checkpoint,
                             checkpoint_every=every)

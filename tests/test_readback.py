@@ -68,8 +68,9 @@ def test_xarray_opens_the_file_with_named_dimensions_and_no_warning(run, tmp_pat
     assert np.array_equal(ds["time"].values, result.t) and ds["time"].dtype == np.float64
     assert np.array_equal(ds["v"].sel(granule=1).values, result.v[:, 1])
     assert ds["x"].attrs["units"] == "1" and "long_name" in ds["balance"].attrs
-    assert list(ds["event_kind"].values) == [e.kind for e in EVENTS]
-    assert ds.attrs["status"] == "separated" and ds.attrs["Conventions"] == "CF-1.10"
+    meanings = ds["event_kind"].attrs["flag_meanings"].split()  # a CF flag variable
+    assert [meanings[int(c)] for c in ds["event_kind"].values] == [e.kind for e in EVENTS]
+    assert ds.attrs["status"] == "separated" and ds.attrs["Conventions"] == "CF-1.8"
     assert ds.attrs["engine_version"] == gc.__version__
     assert gc.load_scene  # the scene attribute is YAML text of the validated scene:
     import yaml

@@ -91,6 +91,8 @@ def run(args) -> int:
     summary = summarize(result, scene, first=args.first)
     text = json.dumps(summary, indent=2)
     print(text)
+    for warning in summary["warnings"]:  # also in the JSON; said where a reader looks
+        print(f"granular-chain: warning: {warning}", file=sys.stderr)
     if claim is not None:
         try:
             with claim:

@@ -287,9 +287,8 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                 resume = restart.prepare(folder.tmp) if restart is not None else None
                 attached = _attach(args, scene, model, folder.tmp, resume)
                 try:
-                    # thermo lines are the progress report; no bar beside them
                     result = simulate(
-                        scene, progress=False, writers=attached.writers,
+                        scene, progress=_bar_wanted(args), writers=attached.writers,
                         keep_frames=attached.keep_frames, thermo=attached.thermo,
                         checkpoint=attached.checkpoint(folder.tmp, scene, folder.note_files),
                         resume=resume)
@@ -324,6 +323,12 @@ def _execute(args, scene, model, out: Path, restart) -> int:
     if reason:  # stopped by a signal: the run folder is marked incomplete
         return stop.exit_code or EXIT_INTERRUPTED
     return EXIT_OK if result.success else EXIT_RUN_FAILED
+
+
+def _bar_wanted(args) -> bool:
+    """A progress bar on standard error: on a terminal, unless --quiet (piped or
+    redirected output gets the thermo lines and the report only)."""
+    return not args.quiet and sys.stderr.isatty()
 
 
 def _os_problem(exc: OSError) -> str:

@@ -18,6 +18,8 @@ from typing import Optional
 
 import numpy as np
 
+from ..progress import echo
+
 __all__ = ["ThermoLog", "COLUMNS", "thermo_every"]
 
 COLUMNS = ("step", "t", "kinetic", "potential", "dissipated", "ledger_error",
@@ -165,19 +167,20 @@ class _Echo:
             ("step", "t", "kinetic", "potential", "dissipated", "ledger", "closed", "sliding"),
             self._WIDTHS))
         if self._rich is not None:
-            self._rich.print(f"[bold]{header}[/bold]")
+            echo(lambda: self._rich.print(f"[bold]{header}[/bold]"))
         else:
-            print(header, flush=True)
+            echo(lambda: print(header, flush=True))
 
     def line(self, row) -> None:
         step, t, ke, pe, diss, err, closed, sliding = row
         values = (str(step), _g(t), _g(ke), _g(pe), _g(diss), f"{err:.2e}", str(closed),
                   str(sliding))
         text = "".join(value.rjust(w) for value, w in zip(values, self._WIDTHS))
+        # a progress bar on the terminal is cleared for the line and drawn again below it
         if self._rich is not None:
-            self._rich.print(text)
+            echo(lambda: self._rich.print(text))
         else:
-            print(text, flush=True)
+            echo(lambda: print(text, flush=True))
 
 
 def _g(value: float) -> str:

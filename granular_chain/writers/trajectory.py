@@ -13,7 +13,9 @@ Layout (``units`` and ``long_name`` on every variable; scaled scenes use CF's
 dimensionless unit ``"1"``, physical ones SI):
 
 ``time`` (time), unlimited, and ``granule`` (granule)
-    Dimension scales: frame times, and granule indices 0..N-1 from the left.
+    Dimension scales: frame times (elapsed since the run's start: a plain
+    coordinate, not CF's calendar time axis, which needs a reference date), and
+    granule indices 0..N-1 from the left.
 ``x``, ``v``, ``f`` (time, granule)
     Centre positions, velocities, net contact force (neighbours and walls).
 ``kinetic``, ``potential``, ``coulomb``, ``viscous``, ``contact_dissipated``, ``wall_work``,
@@ -26,7 +28,10 @@ dimensionless unit ``"1"``, physical ones SI):
     The per-granule values the run used (drawn values, for scenes with distributions).
 ``x_final``, ``v_final`` (granule); ``event_time``, ``event_kind``, ``event_index``,
 ``event_step`` (event)
-    The final state and the event log (written when the run is closed).
+    The final state and the event log (written when the run is closed);
+    ``event_kind`` is a CF flag variable: int8 codes with ``flag_values`` 0..3 and
+    ``flag_meanings`` "contact_close contact_open stop slip"
+    (:func:`event_kind_names` reads it, and the strings of earlier files).
 
 Global attributes: ``Conventions``, ``title``, ``source``, ``engine_version``,
 ``scene`` (the validated scene as YAML text: distributions appear as their recipe,
@@ -52,10 +57,11 @@ import h5py
 import numba
 import numpy as np
 
+from ..codes import EVENT_KINDS
 from ..result import TERMS_ADDED, ledger_balance
 
 __all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
-           "to_xarray", "FRAME_FIELDS", "LEDGER_FIELDS"]
+           "to_xarray", "event_kind_names", "FRAME_FIELDS", "LEDGER_FIELDS"]
 
 # Values in one chunk of a (time, granule) array, at most: 512 KiB of float64, so
 # reading one frame reads little more than it (a chunk holds at least one frame).
@@ -67,6 +73,10 @@ _UNITS = {  # CF / UDUNITS strings per kind of quantity
                  "energy": "J", "mass": "kg", "damping": "kg s-1", "": "1"},
 }
 _SCALED = "scaled, paper Appendix A"
+# The frames' time is elapsed time from the run's start, not a date: CF's time
+# coordinate (axis T) needs units "<unit> since <date>", which a scaled time in
+# units of "1" cannot have, so ``time`` is a plain coordinate with units s or 1.
+_TIME = "time since the start of the run"
 
 #: (time, granule) arrays: name -> (kind, long_name)
 FRAME_FIELDS = {
@@ -102,7 +112,7 @@ _GRANULE_FIELDS = {
 # dtype, kind of unit, long name); written by the writer and by to_xarray alike.
 _EVENT_FIELDS = {
     "event_time": ("t", np.float64, "time", "time of the event"),
-    "event_kind": ("kind", object, "", "contact_close, contact_open, stop or slip"),
+    "event_kind": ("kind", np.int8, "flag", "kind of event"),
     "event_index": ("index", np.int64, "",
                     "contact (-1 left wall, N-1 right wall) or granule index"),
     "event_step": ("step", np.int64, "",
@@ -110,10 +120,44 @@ _EVENT_FIELDS = {
 }
 
 
+#: event_kind is a CF flag variable (CF section 3.5): the EventKind codes, named in
+#: flag_meanings: CF's encoding of a few named codes (the CF checker refuses the
+#: variable-length strings of earlier files, and classic netCDF has none).
+_EVENT_FLAGS = {"flag_values": np.arange(len(EVENT_KINDS), dtype=np.int8),
+                "flag_meanings": " ".join(EVENT_KINDS)}
+
+
+def _event_value(event, attr: str):
+    """One event's value of ``attr``; its kind as its EventKind code."""
+    value = getattr(event, attr)
+    return EVENT_KINDS.index(str(value)) if attr == "kind" else value
+
+
 def _event_columns(events) -> dict:
     """name -> (values, kind, long name) of the event variables, one value an event."""
-    return {name: (np.array([getattr(e, attr) for e in events], dtype=dtype), kind, text)
+    return {name: (np.array([_event_value(e, attr) for e in events], dtype=dtype), kind, text)
             for name, (attr, dtype, kind, text) in _EVENT_FIELDS.items()}
+
+
+def event_kind_names(variable) -> list:
+    """The event kinds stored in an ``event_kind`` variable, as names.
+
+    Parameters
+    ----------
+    variable : h5py.Dataset
+        ``event_kind``: flag codes with ``flag_values`` and ``flag_meanings``, or
+        (files of earlier versions) variable-length strings.
+
+    Returns
+    -------
+    list of str
+        One name an event (``contact_close``, ``contact_open``, ``stop``, ``slip``).
+    """
+    if h5py.check_string_dtype(variable.dtype) is not None:
+        return [str(k) for k in variable.asstr()[...]]
+    meanings = str(variable.attrs["flag_meanings"]).split()
+    names = dict(zip((int(v) for v in variable.attrs["flag_values"]), meanings))
+    return [names[int(code)] for code in variable[...]]
 
 
 @numba.njit(nogil=True, cache=True)
@@ -137,7 +181,10 @@ def _doubles(a) -> np.ndarray:
 
 
 def _attrs(units_system: str, kind: str, long_name: str) -> dict:
-    """CF ``units`` and ``long_name`` of a variable of this kind."""
+    """CF ``units`` and ``long_name`` of a variable of this kind (a flag variable:
+    ``flag_values`` and ``flag_meanings`` instead of units)."""
+    if kind == "flag":
+        return {"long_name": long_name, **_EVENT_FLAGS}
     if units_system == "physical" or not kind:
         return {"units": _UNITS["physical"][kind], "long_name": long_name}
     return {"units": "1", "long_name": f"{long_name} ({_SCALED})"}
@@ -152,7 +199,7 @@ def root_attrs(scene) -> dict:
     """Global attributes known before the run: conventions, engine, the scene as YAML."""
     import yaml
 
-    attrs = {"Conventions": "CF-1.10", "source": f"granular_chain {_engine_version()}",
+    attrs = {"Conventions": "CF-1.8", "source": f"granular_chain {_engine_version()}",
              "engine": "granular_chain", "engine_version": _engine_version(),
              "units_system": scene.units if scene is not None else "scaled"}
     if scene is not None:
@@ -334,7 +381,7 @@ class TrajectoryWriter:
         h5.attrs.update(root_attrs(scene))
         time = h5.create_dataset("time", shape=(0,), maxshape=(None,), dtype="f8",
                                  chunks=(_SERIES_ROWS,))
-        time.attrs.update({**_attrs(self._units, "time", "time"), "axis": "T"})
+        time.attrs.update(_attrs(self._units, "time", _TIME))
         time.make_scale("time")
         granule = h5.create_dataset("granule", data=np.arange(n, dtype=np.int64))
         granule.attrs.update(_attrs(self._units, "", "granule index, 0 at the left end"))
@@ -367,9 +414,7 @@ class TrajectoryWriter:
 
     def _put(self, name, data, dims, kind, text, dtype="f8") -> None:
         """A fixed-size variable attached to existing dimension scales."""
-        text_data = h5py.check_string_dtype(np.dtype(dtype)) is not None
-        data = np.array(data, dtype=object) if text_data else np.asarray(data)
-        ds = self._h5.create_dataset(name, data=data, dtype=dtype)
+        ds = self._h5.create_dataset(name, data=np.asarray(data), dtype=dtype)
         ds.attrs.update(_attrs(self._units, kind, text))
         for i, dim in enumerate(dims):
             ds.dims[i].attach_scale(self._h5[dim])
@@ -458,8 +503,7 @@ class TrajectoryWriter:
         ev.attrs.update(_attrs(self._units, "", "event number"))
         ev.make_scale("event")
         for name, (values, kind, text) in _event_columns(events).items():
-            dtype = h5py.string_dtype() if values.dtype == object else values.dtype
-            self._put(name, values, ("event",), kind, text, dtype=dtype)
+            self._put(name, values, ("event",), kind, text, dtype=values.dtype)
 
     def __enter__(self) -> "TrajectoryWriter":
         return self
@@ -604,7 +648,8 @@ def read_h5(path, summary: Optional[dict] = None):
             ev = h5["events"] if "events" in h5 else None
             cols = (ev["t"][...], ev["kind"][...], ev["index"][...]) if ev else ((), (), ())
         else:
-            cols = (h5["event_time"][...], h5["event_kind"].asstr()[...], h5["event_index"][...])
+            cols = (h5["event_time"][...], event_kind_names(h5["event_kind"]),
+                    h5["event_index"][...])
         steps = h5["event_step"][...] if "event_step" in h5 else np.full(len(cols[0]), -1)
         events = [Event(float(s), k.decode() if isinstance(k, bytes) else str(k), int(i), int(n))
                   for s, k, i, n in zip(*cols, steps)]
@@ -666,7 +711,7 @@ def to_xarray(result, scene=None):
     import xarray as xr
 
     units = scene.units if scene is not None else "scaled"
-    coords = {"time": ("time", result.t, {**_attrs(units, "time", "time"), "axis": "T"}),
+    coords = {"time": ("time", result.t, _attrs(units, "time", _TIME)),
               "granule": ("granule", np.arange(result.x.shape[1], dtype=np.int64),
                           _attrs(units, "", "granule index, 0 at the left end")),
               "event": ("event", np.arange(len(result.events), dtype=np.int64),

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Optional
 
 import numpy as np
 
@@ -26,6 +27,7 @@ from ...frames import Frame, FrameLog
 from ...interrupts import CHUNK_SECONDS, stop_signals
 from ...ledger import ledger_verdict
 from ...model import Model
+from ...progress import progress_bar
 from ...result import EnergyLedger, Event, Result, ledger_balance
 from ...units import internal_scales, scaled_model, speed_scale, unit_factors
 from .options import EventOptions, event_options
@@ -113,7 +115,8 @@ def unscaled_atol(model: Model, atol: float) -> float:
 
 
 def simulate_events(options, model: Model, log: FrameLog | None = None, *, resume=None,
-                    checkpoint=None, checkpoint_every: int = 0) -> Result:
+                    checkpoint=None, checkpoint_every: int = 0,
+                    progress: Optional[bool] = None) -> Result:
     """Run the scene with the event stepper in its own scaled units
     (:func:`granular_chain.units.internal_scales`).
 
@@ -143,6 +146,9 @@ def simulate_events(options, model: Model, log: FrameLog | None = None, *, resum
         them) and when a signal interrupts the run (before its final frame).
     checkpoint_every : int
         Taylor steps between checkpoints (0: only at an interruption).
+    progress : bool, optional
+        Progress bar of simulated time, updated between kernel calls
+        (:func:`granular_chain.progress.progress_bar`; None: only in a notebook).
 
     Returns
     -------
@@ -159,7 +165,8 @@ def simulate_events(options, model: Model, log: FrameLog | None = None, *, resum
     streamed = log is not None or resume is not None or checkpoint is not None
     if streamed and log is None:
         log = FrameLog()
-    kw = dict(log=log, resume=resume, checkpoint=checkpoint, checkpoint_every=checkpoint_every)
+    kw = dict(log=log, resume=resume, checkpoint=checkpoint, checkpoint_every=checkpoint_every,
+              progress=progress)
     if scales is None:
         atol = unscaled_atol(model, options.atol)
         if atol != options.atol:
@@ -199,11 +206,12 @@ def _to_scene_units(r: Result, u, streamed: bool) -> None:
 
 
 def run_packed(options: EventOptions, model: Model, units, log=None, resume=None,
-               checkpoint=None, checkpoint_every=0) -> Result:
+               checkpoint=None, checkpoint_every=0, progress=None) -> Result:
     """Run ``model`` (in the kernel's units) with ``options``; ``units`` the factors to
     the scene's own units (:class:`~granular_chain.units.UnitFactors`, None: the same),
     used for the streamed frames and for times in messages. With a ``log`` (or
-    ``resume`` or ``checkpoint``) the frames are streamed (:class:`EventRun`).
+    ``resume`` or ``checkpoint``) the frames are streamed (:class:`EventRun`);
+    ``progress`` as :func:`simulate_events`'.
 
     Returns
     -------
@@ -220,8 +228,13 @@ def run_packed(options: EventOptions, model: Model, units, log=None, resume=None
         run = EventRun(packed, log, units, checkpoint, checkpoint_every)
         if resume is not None:
             run.restore(resume)
-    with stop_signals() as stop:
-        code, wall = drive(packed, stop, run)
+    bar = progress_bar(progress, options.t_end, scale=tscale)
+    try:
+        with stop_signals() as stop:
+            code, wall = drive(packed, stop, run, bar)
+    finally:
+        if bar is not None:
+            bar.close()
     if run is not None:
         run.flush()
         wall += run.wall
@@ -258,7 +271,7 @@ def next_budget(budget: int, seconds: float) -> int:
     return int(min(max(scaled, budget / 8.0, 1.0), 4.0 * budget, 1 << 40))
 
 
-def drive(packed: Packed, stop=None, run=None):
+def drive(packed: Packed, stop=None, run=None, bar=None):
     """Call the kernel until it returns a Status.
 
     With a :class:`~granular_chain.interrupts.StopRequest` ``stop``, each call
@@ -268,6 +281,8 @@ def drive(packed: Packed, stop=None, run=None):
     same bit for bit as in one call. With an :class:`EventRun` ``run``, the
     frames recorded by each call are handed on between calls and checkpoints are
     taken (:meth:`EventRun.between`), and the pace counters start from the run's.
+    A :class:`~granular_chain.progress.ProgressBar` ``bar`` is moved to the
+    simulated time reached after each call.
     A run that cannot reach t_end within run.max_steps at its pace ends with
     Status.MAX_STEPS (``packed.out_of_steps``). Returns the code and the wall
     time (seconds).
@@ -277,6 +292,8 @@ def drive(packed: Packed, stop=None, run=None):
     start = time.perf_counter()
     clock = packed.clock
     mark = (float(clock.time), int(clock.steps)) if run is None else run.mark
+    if bar is not None:
+        bar.start(float(clock.time))
     while True:
         if stop is None:
             settings["budget"] = 0
@@ -300,6 +317,8 @@ def drive(packed: Packed, stop=None, run=None):
         else:
             break
         interrupted = stop is not None and stop.requested
+        if bar is not None:
+            bar.update(float(packed.clock.time))
         if run is not None:
             run.between(budget, mark, time.perf_counter() - start, interrupted)
         if interrupted:

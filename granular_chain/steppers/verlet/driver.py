@@ -18,7 +18,6 @@ at once would have: same status, message, step, time, frames and event counts.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import dataclass
 from functools import partial
@@ -35,6 +34,7 @@ from ...interrupts import CHUNK_SECONDS, stop_signals
 from ...laws.damping import DAMPING_LINEAR
 from ...laws.friction import drift_tables
 from ...model import Model
+from ...progress import progress_bar
 from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Result, ledger_balance
 from ...units import scaled_parameters
 from .event_log import EventLog, new_event_log
@@ -345,7 +345,7 @@ class VerletRun:
         self.stop_contact = settings.stop_contact if model.count > 1 else 0
         self.log_events = int(scene.output.events)
         self._init_state()
-        self.bar = _progress_bar(progress, self.n_total)
+        self.bar = progress_bar(progress, self.t_end)
 
     def _init_state(self) -> None:
         model, N, dt = self.model, self.model.count, self.plan.dt
@@ -505,6 +505,8 @@ class VerletRun:
             self.log.keep = False
             self._restore(resume)
         start = time.perf_counter()  # stepping time: from the first frame on
+        if self.bar is not None:
+            self.bar.start(self.t_now)
         try:
             with stop_signals() as stop:
                 status, message = self._loop(stop)
@@ -721,8 +723,7 @@ class VerletRun:
         ends = self.short_taken or (self.steps == self.plan.steps and not self.plan.last_dt)
         self.t_now = self.t_end if ends else self.steps * self.plan.dt
         if self.bar is not None:
-            self.bar.update(taken)
-            self.bar.set_postfix_str(f"t = {self.t_now:.4g} / {self.t_end:g}", refresh=False)
+            self.bar.update(self.t_now)
         return code
 
     def _call(self, chunk, n_steps: int):
@@ -1034,16 +1035,6 @@ def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):
     v -= tau * acc
     _net_forces(model, u, np.zeros(max(model.count - 1, 1)), f)
     return t_now - tau
-
-
-def _progress_bar(progress: Optional[bool], total: int):
-    if progress is False:
-        return None
-    if progress is None and not sys.stderr.isatty():
-        return None
-    from tqdm import tqdm
-    return tqdm(total=total, desc="simulating", unit="step", unit_scale=True, mininterval=0.5, delay=2.0,
-                file=sys.stderr, leave=False)
 
 
 def _stored(state: dict, key: str):
