@@ -370,7 +370,8 @@ class Contacts(_Strict):
     """One-sided power-law contacts: force k * delta^(n-1) while delta > 0."""
 
     exponent: Union[Exponent, list[Exponent]] = Field(
-        2.0, description="Exponent n of the potential (2 linear, 2.5 Hertz); force ~ delta^(n-1).")
+        2.0, description="Exponent n of the potential (2 linear, 2.5 Hertz); force ~ delta^(n-1); "
+        "2.5 by default with stiffness: hertz.")
     stiffness: Union[Literal["hertz"], PerItemScale] = Field(
         1.0,
         description="Force coefficient k (force = k delta^(n-1)), one value or N-1 values, "
@@ -443,7 +444,8 @@ class Wall(_Strict):
         "k = (4/3) E* sqrt(r) (a sphere of radius r on a flat) from the wall's material and "
         "the end granule's granules.material (then the exponent is 2.5, its default).")
     exponent: Exponent = Field(
-        2.0, description="Exponent n of the wall contact.")
+        2.0, description="Exponent n of the wall contact (2.5 by default with stiffness: "
+        "hertz).")
     material: Optional[WallMaterial] = Field(
         None, description="Elastic constants of the wall (young, poisson), used when its "
         "stiffness is 'hertz'.")

@@ -164,3 +164,65 @@ def test_restitution_builds_each_contact_and_wall_from_its_own_masses():
         assert A == pytest.approx(R.solve_damping(0.9, 1.0, 2.5, k, m), rel=1e-14)
     assert model.wall_damping[1] == pytest.approx(R.solve_damping(0.9, 1.0, 2.5, 2.0, 0.5),
                                                   rel=1e-14)
+
+
+def _hertz_scene(walls, contacts=None):
+    return {"name": "s", "units": "physical",
+            "granules": {"count": 3, "mass": 1e-3, "radius": [0.01, 0.02, 0.005],
+                         "material": {"young": [70e9, 70e9, 100e9], "poisson": [0.22, 0.22, 0.3]}},
+            "contacts": contacts or {"stiffness": "hertz"}, "walls": walls}
+
+
+def test_hertz_wall_is_the_textbook_sphere_on_flat():
+    """walls.*.stiffness: hertz is k = (4/3) E* sqrt(r), 1/E* = (1-nu_g^2)/E_g + (1-nu_w^2)/E_w,
+    with the end granule's material and radius; the exponent defaults to 2.5."""
+    steel = {"young": 200e9, "poisson": 0.3}
+    model = build_model(gc.scene_from_dict(_hertz_scene(
+        {"left": {"stiffness": "hertz", "material": steel},
+         "right": {"stiffness": "hertz", "material": {"young": 3e9, "poisson": 0.4}}})))
+    e_left = 1.0 / ((1 - 0.22 ** 2) / 70e9 + (1 - 0.3 ** 2) / 200e9)
+    e_right = 1.0 / ((1 - 0.3 ** 2) / 100e9 + (1 - 0.4 ** 2) / 3e9)
+    assert model.walls[1] == pytest.approx(4 / 3 * e_left * math.sqrt(0.01), rel=1e-15)
+    assert model.walls[4] == pytest.approx(4 / 3 * e_right * math.sqrt(0.005), rel=1e-15)
+    assert model.walls[2] == model.walls[5] == 2.5
+    assert np.all(model.n == 2.5) and model.features.law == gc.model.LAW_HERTZ
+    # a flat is the limit of a sphere of infinite radius in the two-sphere formula
+    far = gc.model.hertz_stiffness(70e9, 0.22, 200e9, 0.3, 0.01, 1e30)
+    assert hertz_wall_stiffness(70e9, 0.22, 200e9, 0.3, 0.01) == pytest.approx(far, rel=1e-14)
+
+
+def test_hertz_contacts_default_to_the_hertz_exponent():
+    """contacts.stiffness: hertz without contacts.exponent is n = 5/2 (an explicit 2.0
+    is still refused)."""
+    scene = gc.scene_from_dict(_hertz_scene({}))
+    assert scene.contacts.exponent == 2.5
+    with pytest.raises(gc.SceneError, match="contacts.exponent"):
+        gc.scene_from_dict(_hertz_scene({}, {"stiffness": "hertz", "exponent": 2.0}))
+
+
+@pytest.mark.parametrize("wall, field", [
+    ({"stiffness": "hertz"}, "walls.right.stiffness"),
+    ({"stiffness": "hertz", "exponent": 2.0, "material": {"young": 1e9, "poisson": 0.3}},
+     "walls.right.exponent"),
+    ({"stiffness": 5.0, "material": {"young": 1e9, "poisson": 0.3}}, "walls.right.material"),
+    ({"stiffness": "hertz", "material": {"young": 1e9, "poisson": 0.7}},
+     "walls.right.material.poisson"),
+])
+def test_bad_hertz_wall_is_refused(tmp_path, capsys, wall, field):
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(_hertz_scene({"right": wall})))
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and field in err[0], err
+
+
+def test_hertz_wall_needs_granule_material(tmp_path, capsys):
+    data = _hertz_scene({"right": {"stiffness": "hertz",
+                                   "material": {"young": 1e9, "poisson": 0.3}}},
+                        {"stiffness": 1.0})
+    del data["granules"]["material"]
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "walls.right.stiffness" in err[0] and "granules.material" in err[0]
