@@ -74,6 +74,8 @@ UNITS = {
     "normal.seed": "-",
     "lognormal.distribution": "-", "lognormal.median": "as the field", "lognormal.sigma": "-",
     "lognormal.seed": "-",
+    "taper.distribution": "-", "taper.first": "as the field", "taper.ratio": "-",
+    "repeat.distribution": "-", "repeat.values": "as the field",
 }
 
 #: Examples of fields no scene under scenarios/ sets and whose default is empty.
@@ -103,6 +105,8 @@ EXAMPLES = {
     "normal.distribution": "normal", "normal.mean": 1.0, "normal.std": 0.05, "normal.seed": 2,
     "lognormal.distribution": "lognormal", "lognormal.median": 1.0, "lognormal.sigma": 0.1,
     "lognormal.seed": 3,
+    "taper.distribution": "taper", "taper.first": 0.5, "taper.ratio": 0.97,
+    "repeat.distribution": "repeat", "repeat.values": [1.0, 0.5],
 }
 
 
@@ -156,7 +160,8 @@ def walk(schema: dict, node: dict | None = None, prefix: str = "") -> Iterator[t
 
 
 def recipe_fields(schema: dict) -> Iterator[tuple[str, dict, bool]]:
-    """Fields of the seeded distributions as ``<kind>.<field>`` (e.g. ``normal.std``)."""
+    """Fields of the recipes (seeded distributions, sequences) as ``<kind>.<field>``
+    (e.g. ``normal.std``, ``taper.ratio``)."""
     for model in schema["$defs"].values():
         props = model.get("properties", {})
         if "distribution" in props:
@@ -177,11 +182,11 @@ def type_text(schema: dict, node: dict) -> str:
     parts = []
     for alt in _alternatives(node):
         if _is_recipe(schema, alt):
-            if "seeded distribution" not in parts:
-                parts.append("seeded distribution")
+            if "recipe" not in parts:
+                parts.append("recipe")
             continue
         if "discriminator" in alt:
-            parts.append("seeded distribution")
+            parts.append("recipe")
             continue
         kind = alt.get("type")
         if "const" in alt:
@@ -279,7 +284,7 @@ def render() -> str:
         "---", "hide:", "  - toc", "---", "",
         "# Scene reference",
         "",
-        f"Sections: {sections} · [seeded distributions](#seeded-distributions).",
+        f"Sections: {sections} · [recipes](#recipes).",
         "",
         "A scene is a YAML file validated by the schema below (`granular-chain schema` prints it",
         "as JSON Schema). This page is generated from that schema when the site is built:",
@@ -289,17 +294,22 @@ def render() -> str:
         "Units: `units: scaled` (the default) measures everything in the paper's Appendix-A",
         "units (mass m = 1, force coefficient 1, impact speed v0 = 1, see [Theory](../theory.md#units-and-scaling));",
         "`units: physical` reads SI, given in parentheses. `-` marks a pure number or a name.",
-        "Per-granule fields take one value, a list of N values, or a seeded distribution;",
+        "Per-granule fields take one value, a list of N values, or a recipe (a seeded",
+        "distribution, a taper or a repeated pattern): every form, with its formula, is in",
+        "[Per-granule values](../chains.md#per-granule-values);",
         "per-contact fields one value or N - 1 values. Any field can be changed for one run",
         "with `--set dotted.path=value`.",
         "",
     ]
     for top, rows in groups.items():
         lines += [f"## `{top}`" if top != "scene" else "## Top level", "", HEADER, *rows, ""]
-    lines += ["## Seeded distributions", "",
+    lines += ["## Recipes", "",
               "A per-granule field (`granules.mass`, `radius`, `gap`, `velocity`, `friction.*`)",
-              "may be a mapping that draws its N values from a seeded generator, e.g.",
-              "`mass: {distribution: normal, mean: 1.0, std: 0.05, seed: 2}`.", "",
+              "may be a mapping that makes its N values: drawn from a seeded generator, e.g.",
+              "`mass: {distribution: normal, mean: 1.0, std: 0.05, seed: 2}`, or a sequence,",
+              "`radius: {distribution: taper, first: 0.5, ratio: 0.97}` (`first * ratio**i`),",
+              "`mass: {distribution: repeat, values: [1.0, 0.5]}` (`values[i % len(values)]`);",
+              "see [Per-granule values](../chains.md#per-granule-values).", "",
               HEADER]
     lines += [_row(schema, p, prop, req, {}) for p, prop, req in recipe_fields(schema)]
     return "\n".join(lines) + "\n"

@@ -305,17 +305,19 @@ class Granules(_Strict):
 
     @model_validator(mode="after")
     def _draws_in_bounds(self) -> "Granules":
-        """Refuse a distribution whose drawn values break the field's bounds."""
+        """Refuse a recipe whose values break the field's bounds (masses and radii:
+        also the range SCALE_MIN .. SCALE_MAX of one number)."""
         n, fr = self.count, self.friction
-        for path, value, bound, size, item in (
-                ("mass", self.mass, "positive", n, "granule"),
-                ("radius", self.radius, "positive", n, "granule"),
-                ("gap", self.gap, "finite", n - 1, "contact"),
-                ("velocity", self.velocity, "finite", n, "granule"),
-                ("friction.kinetic", fr.kinetic, "nonnegative", n, "granule"),
-                ("friction.static", fr.static, "nonnegative", n, "granule"),
-                ("friction.viscous", fr.viscous, "nonnegative", n, "granule")):
-            problem = check_draw(value, size, bound, item) if is_recipe(value) else ""
+        scale = (SCALE_MIN, SCALE_MAX)
+        for path, value, bound, size, item, limits in (
+                ("mass", self.mass, "positive", n, "granule", scale),
+                ("radius", self.radius, "positive", n, "granule", scale),
+                ("gap", self.gap, "finite", n - 1, "contact", None),
+                ("velocity", self.velocity, "finite", n, "granule", None),
+                ("friction.kinetic", fr.kinetic, "nonnegative", n, "granule", None),
+                ("friction.static", fr.static, "nonnegative", n, "granule", None),
+                ("friction.viscous", fr.viscous, "nonnegative", n, "granule", None)):
+            problem = check_draw(value, size, bound, item, limits) if is_recipe(value) else ""
             if problem:
                 raise _FieldProblem(f"granules.{path}", problem)
         return self
@@ -797,7 +799,7 @@ def _submodel(annotation) -> Optional[type[BaseModel]]:
 
 
 _TYPE_TAGS = {"float", "int", "str", "bool", "list", "dict", "none",
-              "uniform", "normal", "lognormal"}  # the last three: distribution recipes
+              "uniform", "normal", "lognormal", "taper", "repeat"}  # the last five: recipes
 
 
 def _is_tag(part) -> bool:
@@ -881,8 +883,9 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
             p for p in (path, fp.path) if p)
         return SceneError(source, whole, fp.problem)
     if err_type == "union_tag_invalid":
-        return SceneError(source, f"{path}.distribution", "must be uniform, normal or "
-                          f"lognormal (got {first.get('ctx', {}).get('tag')!r})")
+        return SceneError(source, f"{path}.distribution", "must be taper, repeat, uniform, "
+                          f"normal or lognormal (got {first.get('ctx', {}).get('tag')!r}; "
+                          f"see docs/chains.md, Per-granule values)")
     if err_type == "value_error" and path.split(".")[-1] in ("mass", "radius", "gap", "velocity",
                                                            "kinetic", "static", "viscous"):
         return SceneError(source, path, first["msg"].removeprefix("Value error, "))
