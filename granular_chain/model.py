@@ -448,7 +448,8 @@ def _dashpots(scene: Scene, mass: np.ndarray, k: np.ndarray, n: np.ndarray, wall
         code = DAMPING_LINEAR
     else:
         # e(g) is the same function for every contact of one exponent: one root per n
-        groups = {nn: scaled_damping(spec.value, nn, tensile) for _, nn, _ in rows + wall_rows}
+        groups = {nn: scaled_damping(spec.value, nn, tensile)
+                  for nn in sorted({nn for _, nn, _ in rows + wall_rows})}
         coeff = [solve_damping(spec.value, spec.speed, nn, kk, m, tensile) if nn == 2.0
                  else groups[nn] * contact_time_scale(spec.speed, kk, m, nn)
                  for kk, nn, m in rows + wall_rows]
