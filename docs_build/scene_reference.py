@@ -42,7 +42,11 @@ UNITS = {
     "walls.left.exponent": "-", "walls.right.exponent": "-",
     "contacts.damping": "-", "contacts.damping.model": "-",
     "contacts.damping.coefficient": "c: force / velocity (N s/m); A: time (s)",
-    "contacts.damping.value": "-", "contacts.tensile": "-",
+    "contacts.damping.value": "-", "contacts.damping.speed": "velocity (m/s)",
+    "contacts.tensile": "-",
+    "walls.left.material": "-", "walls.right.material": "-",
+    "walls.left.material.young": "pressure (Pa)", "walls.right.material.young": "pressure (Pa)",
+    "walls.left.material.poisson": "-", "walls.right.material.poisson": "-",
     "walls.left.motion": "-", "walls.right.motion": "-",
     "walls.left.motion.velocity": "velocity (m/s)", "walls.right.motion.velocity": "velocity (m/s)",
     "walls.left.motion.sine": "-", "walls.right.motion.sine": "-",
@@ -72,6 +76,8 @@ UNITS = {
     "normal.seed": "-",
     "lognormal.distribution": "-", "lognormal.median": "as the field", "lognormal.sigma": "-",
     "lognormal.seed": "-",
+    "taper.distribution": "-", "taper.first": "as the field", "taper.ratio": "-",
+    "repeat.distribution": "-", "repeat.values": "as the field",
 }
 
 #: Examples of fields no scene under scenarios/ sets and whose default is empty.
@@ -89,6 +95,9 @@ EXAMPLES = {
     "run.stages[].t_end": 400, "run.stages[].name": "settle",
     "run.stages[].velocity": {7: -0.3}, "run.stages[].velocity_add": {0: 0.1},
     "contacts.damping.coefficient": 0.1, "contacts.damping.value": 0.8,
+    "contacts.damping.speed": 1.0,
+    "walls.left.material.young": 2.0e11, "walls.right.material.young": 2.0e11,
+    "walls.left.material.poisson": 0.3, "walls.right.material.poisson": 0.3,
     "walls.left.motion.velocity": 0.05, "walls.right.motion.velocity": -0.05,
     "walls.left.motion.sine.amplitude": 0.01, "walls.right.motion.sine.amplitude": 0.01,
     "walls.left.motion.sine.frequency": 0.2, "walls.right.motion.sine.frequency": 0.2,
@@ -100,6 +109,8 @@ EXAMPLES = {
     "normal.distribution": "normal", "normal.mean": 1.0, "normal.std": 0.05, "normal.seed": 2,
     "lognormal.distribution": "lognormal", "lognormal.median": 1.0, "lognormal.sigma": 0.1,
     "lognormal.seed": 3,
+    "taper.distribution": "taper", "taper.first": 0.5, "taper.ratio": 0.97,
+    "repeat.distribution": "repeat", "repeat.values": [1.0, 0.5],
 }
 
 
@@ -167,7 +178,8 @@ def _item_model(schema: dict, node: dict) -> dict | None:
 
 
 def recipe_fields(schema: dict) -> Iterator[tuple[str, dict, bool]]:
-    """Fields of the seeded distributions as ``<kind>.<field>`` (e.g. ``normal.std``)."""
+    """Fields of the recipes (seeded distributions, sequences) as ``<kind>.<field>``
+    (e.g. ``normal.std``, ``taper.ratio``)."""
     for model in schema["$defs"].values():
         props = model.get("properties", {})
         if "distribution" in props:
@@ -188,11 +200,11 @@ def type_text(schema: dict, node: dict) -> str:
     parts = []
     for alt in _alternatives(node):
         if _is_recipe(schema, alt):
-            if "seeded distribution" not in parts:
-                parts.append("seeded distribution")
+            if "recipe" not in parts:
+                parts.append("recipe")
             continue
         if "discriminator" in alt:
-            parts.append("seeded distribution")
+            parts.append("recipe")
             continue
         kind = alt.get("type")
         if "$ref" in alt:  # a list of models: their fields have rows of their own
@@ -292,7 +304,7 @@ def render() -> str:
         "---", "hide:", "  - toc", "---", "",
         "# Scene reference",
         "",
-        f"Sections: {sections} · [seeded distributions](#seeded-distributions).",
+        f"Sections: {sections} · [recipes](#recipes).",
         "",
         "A scene is a YAML file validated by the schema below (`granular-chain schema` prints it",
         "as JSON Schema). This page is generated from that schema when the site is built:",
@@ -302,17 +314,22 @@ def render() -> str:
         "Units: `units: scaled` (the default) measures everything in the paper's Appendix-A",
         "units (mass m = 1, force coefficient 1, impact speed v0 = 1, see [Theory](../theory.md#units-and-scaling));",
         "`units: physical` reads SI, given in parentheses. `-` marks a pure number or a name.",
-        "Per-granule fields take one value, a list of N values, or a seeded distribution;",
+        "Per-granule fields take one value, a list of N values, or a recipe (a seeded",
+        "distribution, a taper or a repeated pattern): every form, with its formula, is in",
+        "[Per-granule values](../chains.md#per-granule-values);",
         "per-contact fields one value or N - 1 values. Any field can be changed for one run",
         "with `--set dotted.path=value`.",
         "",
     ]
     for top, rows in groups.items():
         lines += [f"## `{top}`" if top != "scene" else "## Top level", "", HEADER, *rows, ""]
-    lines += ["## Seeded distributions", "",
+    lines += ["## Recipes", "",
               "A per-granule field (`granules.mass`, `radius`, `gap`, `velocity`, `friction.*`)",
-              "may be a mapping that draws its N values from a seeded generator, e.g.",
-              "`mass: {distribution: normal, mean: 1.0, std: 0.05, seed: 2}`.", "",
+              "may be a mapping that makes its N values: drawn from a seeded generator, e.g.",
+              "`mass: {distribution: normal, mean: 1.0, std: 0.05, seed: 2}`, or a sequence,",
+              "`radius: {distribution: taper, first: 0.5, ratio: 0.97}` (`first * ratio**i`),",
+              "`mass: {distribution: repeat, values: [1.0, 0.5]}` (`values[i % len(values)]`);",
+              "see [Per-granule values](../chains.md#per-granule-values).", "",
               HEADER]
     lines += [_row(schema, p, prop, req, {}) for p, prop, req in recipe_fields(schema)]
     return "\n".join(lines) + "\n"

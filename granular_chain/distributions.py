@@ -1,4 +1,4 @@
-"""Seeded distributions for per-granule (and per-contact) scene values.
+"""Recipes for per-granule (and per-contact) scene values: seeded draws and sequences.
 
 Instead of a list of N numbers, a per-granule field of a scene may hold a
 recipe::
@@ -8,6 +8,12 @@ recipe::
       mass: {distribution: lognormal, median: 1.0, sigma: 0.1, seed: 7}
       velocity: {distribution: normal, mean: 0.0, std: 0.01, seed: 8}
       friction: {kinetic: {distribution: uniform, low: 0.0, high: 0.05, seed: 9}}
+      radius: {distribution: taper, first: 0.5, ratio: 0.97}
+
+The two sequences (no seed, no randomness), for ``i = 0 .. n-1``::
+
+    taper      value_i = first * ratio**i          (numpy: first * ratio ** arange(n))
+    repeat     value_i = values[i % len(values)]   (a dimer: values: [1.0, 0.5])
 
 Fields that take one: ``granules.mass``, ``radius``, ``velocity``, ``gap``
 (N-1 values, one per contact) and ``granules.friction.kinetic``, ``static``,
@@ -28,9 +34,10 @@ so they are identical on every machine with the same NumPy version (NumPy
 keeps a Generator's stream for a given version; see NEP 19); lognormal also
 calls the C library's ``exp``, correctly rounded in practice on glibc.
 
-Nothing is clipped or redrawn: a draw that breaks the field's bounds (a
-negative mass from a wide normal, say) is refused, naming the field, the
-granule and the value; pick another seed, a narrower spread or lognormal.
+Nothing is clipped or redrawn: values that break the field's bounds (a
+negative mass from a wide normal, a radius tapered below the smallest number
+the scene takes, say) are refused, naming the field, the granule and the
+value; pick another seed, a narrower spread, lognormal, or another ratio.
 Two fields with the same seed draw from the same stream (their values are
 correlated); give each field its own seed.
 """
@@ -43,7 +50,8 @@ from typing import Annotated, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-__all__ = ["Uniform", "Normal", "LogNormal", "Distribution", "draw", "check_draw"]
+__all__ = ["Uniform", "Normal", "LogNormal", "Taper", "Repeat", "Distribution", "draw",
+           "check_draw", "is_recipe"]
 
 # strict: a number is a number (not true or "0.5"), a seed a whole number (not 7.0)
 _Finite = Annotated[float, Field(strict=True, allow_inf_nan=False)]
@@ -87,7 +95,26 @@ class LogNormal(_Recipe):
     seed: _Seed
 
 
-Distribution = Annotated[Union[Uniform, Normal, LogNormal], Field(discriminator="distribution")]
+class Taper(_Recipe):
+    """A geometric sequence: value_i = first * ratio**i."""
+
+    distribution: Literal["taper"]
+    first: Annotated[_Finite, Field(description="Value of item 0.")]
+    ratio: Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False,
+                                  description="Ratio of item i+1 to item i (> 0).")]
+
+
+class Repeat(_Recipe):
+    """A repeated pattern: value_i = values[i % len(values)]."""
+
+    distribution: Literal["repeat"]
+    values: Annotated[list[_Finite], Field(min_length=1, description="The pattern, repeated "
+                                           "from item 0 (a dimer: two values).")]
+
+
+Distribution = Annotated[Union[Uniform, Normal, LogNormal, Taper, Repeat],
+                         Field(discriminator="distribution")]
+_RECIPES = (Uniform, Normal, LogNormal, Taper, Repeat)
 
 
 def draw(recipe, n: int) -> np.ndarray:
@@ -106,6 +133,10 @@ def draw(recipe, n: int) -> np.ndarray:
     ndarray, shape (n,)
         float64, in the unit of the field.
     """
+    if isinstance(recipe, Taper):  # may overflow to inf: check_draw refuses it
+        return recipe.first * recipe.ratio ** np.arange(n, dtype=np.float64)
+    if isinstance(recipe, Repeat):
+        return np.resize(np.asarray(recipe.values, dtype=np.float64), n)
     rng = np.random.default_rng(recipe.seed)
     if isinstance(recipe, Uniform):
         return rng.uniform(recipe.low, recipe.high, n)
@@ -114,38 +145,63 @@ def draw(recipe, n: int) -> np.ndarray:
     return rng.lognormal(math.log(recipe.median), recipe.sigma, n)
 
 
-def check_draw(recipe, n: int, bound: str, item: str = "granule") -> str:
+def check_draw(recipe, n: int, bound: str, item: str = "granule", scale=None) -> str:
     """What is wrong with the drawn values for a field with this bound, or ''.
 
     Parameters
     ----------
-    recipe : float, list or mapping
-        A per-granule field of the scene file: one value, N values, or a
-        distribution recipe (see the module docstring).
+    recipe : Uniform, Normal, LogNormal, Taper or Repeat
+        A recipe (see the module docstring).
     n : int
         Number of values.
     bound : str
         ``positive``, ``nonnegative`` or ``finite``.
     item : str
         What the values are indexed by, for the message (``granule`` or ``contact``).
+    scale : (float, float), optional
+        Smallest and largest value the field takes (masses and radii), besides ``bound``.
 
     Returns
     -------
     str
         The message, or '' when the values are fine.
     """
-    values = draw(recipe, n)
-    bad = {"positive": values <= 0, "nonnegative": values < 0,
-           "finite": ~np.isfinite(values)}[bound]
-    if not bad.any():
+    with np.errstate(over="ignore"):
+        values = draw(recipe, n)
+    # the first check that fails speaks: finite, then the bound, then the range
+    checks = [("finite", np.isfinite(values)),
+              (">= 0" if bound == "nonnegative" else "> 0",
+               values >= 0 if bound == "nonnegative" else values > 0)]
+    if bound == "finite":
+        checks = checks[:1]
+    if scale is not None:
+        checks.append((f"within {scale[0]:.3g} .. {scale[1]:.3g}",
+                       (values >= scale[0]) & (values <= scale[1])))
+    need, bad = next(((need, ~ok) for need, ok in checks if not ok.all()), ("", None))
+    if bad is None:
         return ""
     i = int(np.argmax(bad))
-    need = {"positive": "> 0", "nonnegative": ">= 0", "finite": "finite"}[bound]
-    return (f"the {recipe.distribution} draw with seed {recipe.seed} gives {values[i]:.6g} for "
-            f"{item} {i} ({int(bad.sum())} of {n} values not {need}); values must be {need}: "
-            f"change the seed or the parameters" +
-            (", or use lognormal" if bound == "positive" else ""))
+    if isinstance(recipe, (Taper, Repeat)):
+        source = f"the {recipe.distribution} values give"
+        fix = "change first or ratio" if isinstance(recipe, Taper) else "change the values"
+    else:
+        source = f"the {recipe.distribution} draw with seed {recipe.seed} gives"
+        fix = "change the seed or the parameters" + (
+            ", or use lognormal" if bound == "positive" else "")
+    return (f"{source} {values[i]:.6g} for {item} {i} ({int(bad.sum())} of {n} values not "
+            f"{need}); values must be {need}: {fix}")
 
 
 def is_recipe(value) -> bool:
-    return isinstance(value, (Uniform, Normal, LogNormal))
+    """Whether a field's value is a recipe (see the module docstring).
+
+    Parameters
+    ----------
+    value : object
+        A field of a validated scene.
+
+    Returns
+    -------
+    bool
+    """
+    return isinstance(value, _RECIPES)

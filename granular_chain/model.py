@@ -267,6 +267,50 @@ def hertz_stiffness(young_a, poisson_a, young_b, poisson_b, r_a, r_b):
     return 4.0 / 3.0 * e_star * np.sqrt(r_star)
 
 
+def hertz_wall_stiffness(young_granule, poisson_granule, young_wall, poisson_wall, radius):
+    """Hertz force coefficient of a sphere on a flat: F = k delta^(3/2), k = (4/3) E* sqrt(r).
+
+    The flat is a sphere of infinite radius, so R* of :func:`hertz_stiffness` is the
+    granule's radius r; E* = 1 / ((1-nu_g^2)/E_g + (1-nu_w^2)/E_w) from both materials
+    (Johnson, Contact Mechanics, eq. (4.22)-(4.23)).
+
+    Parameters
+    ----------
+    young_granule, poisson_granule : float
+        Young's modulus (pressure) and Poisson ratio of the granule.
+    young_wall, poisson_wall : float
+        The same for the wall.
+    radius : float
+        Radius of the granule (length).
+
+    Returns
+    -------
+    float
+        k in force / length^(3/2).
+    """
+    e_star = 1.0 / ((1 - poisson_granule ** 2) / young_granule
+                    + (1 - poisson_wall ** 2) / young_wall)
+    return 4.0 / 3.0 * e_star * math.sqrt(radius)
+
+
+def _walls(scene: Scene, radius: np.ndarray) -> np.ndarray:
+    """(d0, k, n) of the left then the right wall contact, shape (6,) (zeros if absent)."""
+    walls = np.zeros(6)
+    for j, (side, end) in enumerate((("left", 0), ("right", -1))):
+        wall = getattr(scene.walls, side)
+        if wall is None:
+            continue
+        k = wall.stiffness
+        if k == "hertz":
+            mat = scene.granules.material
+            young = _per(mat.young, radius.size)[end]
+            poisson = _per(mat.poisson, radius.size)[end]
+            k = hertz_wall_stiffness(float(young), float(poisson), wall.material.young,
+                                     wall.material.poisson, float(radius[end]))
+        walls[3 * j:3 * j + 3] = (-wall.gap, k, wall.exponent)
+    return walls
+
+
 def friction_features(eta, eta_static, gamma):
     """Which friction a scene has: (coulomb, viscous) from the per-granule arrays.
 
@@ -330,12 +374,8 @@ def build_model(scene: Scene) -> Model:
         k = hertz_stiffness(E[:-1], nu[:-1], E[1:], nu[1:], radius[:-1], radius[1:])
     else:
         k = _per(scene.contacts.stiffness, N - 1) if N > 1 else np.zeros(0)
-    walls = np.zeros(6)
+    walls = _walls(scene, radius)
     left, right = scene.walls.left, scene.walls.right
-    if left is not None:
-        walls[0:3] = (-left.gap, left.stiffness, left.exponent)
-    if right is not None:
-        walls[3:6] = (-right.gap, right.stiffness, right.exponent)
     fr = g.friction
     eta = _per(fr.kinetic, N)
     eta_s = _per(fr.static, N) if fr.static is not None else eta.copy()
@@ -354,7 +394,7 @@ def build_model(scene: Scene) -> Model:
         law = LAW_POWER
     coulomb, viscous = friction_features(eta, eta_s, gamma)
     k = np.ascontiguousarray(k, dtype=np.float64)
-    damping_code, damping, wall_damping = _dashpots(scene, mass, k, walls)
+    damping_code, damping, wall_damping = _dashpots(scene, mass, k, n_exp, walls)
     body = _body_force(scene, mass)
     motion = _wall_motion(scene)
     features = Features(
@@ -377,12 +417,15 @@ def build_model(scene: Scene) -> Model:
     )
 
 
-def _dashpots(scene: Scene, mass: np.ndarray, k: np.ndarray, walls: np.ndarray):
+def _dashpots(scene: Scene, mass: np.ndarray, k: np.ndarray, n: np.ndarray, walls: np.ndarray):
     """(code, per-contact coefficients (N-1,), wall coefficients (2,)) of contacts.damping.
 
-    ``restitution`` becomes the linear dashpot whose two-body restitution is e
-    (:func:`granular_chain.restitution.choose_damping`), with the contact's reduced
-    mass, or the end granule's mass for a wall (a wall is an infinite mass).
+    ``restitution`` with every exponent 2 becomes the linear dashpot whose two-body
+    restitution is e (:func:`granular_chain.restitution.choose_damping`); with any
+    other exponent, the viscoelastic dashpot whose restitution is e at the impact
+    speed ``speed`` (:func:`granular_chain.restitution.solve_damping`; A = c/k at
+    n = 2). Each contact uses its reduced mass, a wall the end granule's mass (a
+    wall is an infinite mass).
     """
     spec = scene.contacts.damping
     N = mass.size
@@ -391,16 +434,30 @@ def _dashpots(scene: Scene, mass: np.ndarray, k: np.ndarray, walls: np.ndarray):
     if spec.model != "restitution":
         code = DAMPING_LINEAR if spec.model == "linear" else DAMPING_VISCOELASTIC
         return code, np.full(max(N - 1, 0), float(spec.coefficient)), np.full(2, float(spec.coefficient))
-    from .restitution import choose_damping
+    from .restitution import (choose_damping, contact_time_scale, scaled_damping,
+                              solve_damping)
     tensile = bool(scene.contacts.tensile)
     mu = mass[:-1] * mass[1:] / (mass[:-1] + mass[1:])
-    c = np.array([choose_damping(spec.value, float(kk), float(m), tensile)
-                  for kk, m in zip(k, mu)])
+    rows = [(float(kk), float(nn), float(m)) for kk, nn, m in zip(k, n, mu)]
+    sides = [(j, side) for j, side in enumerate(("left", "right"))
+             if getattr(scene.walls, side) is not None]
+    ends = {0: float(mass[0]), 1: float(mass[-1])}
+    wall_rows = [(float(walls[3 * j + 1]), float(walls[3 * j + 2]), ends[j]) for j, _ in sides]
+    if all(nn == 2.0 for _, nn, _ in rows + wall_rows):
+        coeff = [choose_damping(spec.value, kk, m, tensile) for kk, _, m in rows + wall_rows]
+        code = DAMPING_LINEAR
+    else:
+        # e(g) is the same function for every contact of one exponent: one root per n
+        groups = {nn: scaled_damping(spec.value, nn, tensile)
+                  for nn in sorted({nn for _, nn, _ in rows + wall_rows})}
+        coeff = [solve_damping(spec.value, spec.speed, nn, kk, m, tensile) if nn == 2.0
+                 else groups[nn] * contact_time_scale(spec.speed, kk, m, nn)
+                 for kk, nn, m in rows + wall_rows]
+        code = DAMPING_VISCOELASTIC
     wall_c = np.zeros(2)
-    for side, (j, end) in {"left": (0, mass[0]), "right": (1, mass[-1])}.items():
-        if getattr(scene.walls, side) is not None:
-            wall_c[j] = choose_damping(spec.value, float(walls[3 * j + 1]), float(end), tensile)
-    return DAMPING_LINEAR, np.ascontiguousarray(c, dtype=np.float64), wall_c
+    for (j, _), c in zip(sides, coeff[len(rows):]):
+        wall_c[j] = c
+    return code, np.ascontiguousarray(coeff[:len(rows)], dtype=np.float64), wall_c
 
 
 def _body_force(scene: Scene, mass: np.ndarray) -> np.ndarray:

@@ -45,11 +45,13 @@ from fractions import Fraction
 import mpmath as mp
 import numpy as np
 from scipy import optimize
+from scipy.integrate import solve_ivp
 
 __all__ = ["Restitution", "linear_dashpot", "choose_damping", "restitution_reference",
            "contact_time_scale", "hertz_contact_time", "viscoelastic_group",
            "viscoelastic_series", "VISCOELASTIC_C1",
-           "VISCOELASTIC_C2", "viscoelastic_c1_exact", "column_overlaps"]
+           "VISCOELASTIC_C2", "viscoelastic_c1_exact", "column_overlaps", "damping_group",
+           "scaled_restitution", "scaled_damping", "solve_damping"]
 
 
 @dataclass(frozen=True)
@@ -666,3 +668,227 @@ def column_overlaps(N, m, g, k, n):
     """
     load = g * np.cumsum(np.broadcast_to(np.asarray(m, dtype=float), (N,)))
     return (load / np.asarray(k, dtype=float)) ** (1.0 / (n - 1))
+
+
+# ----------------------------------------------------------------------------
+# A target restitution for any exponent: float64 e(g) and its inverse
+# ----------------------------------------------------------------------------
+#: Integration tolerances of :func:`scaled_restitution` (DOP853, relative and absolute).
+_RTOL, _ATOL = 2.5e-14, 1e-17
+
+
+def damping_group(A, speed, n, k, m_reduced):
+    """The one dimensionless group ``g = A / tau_u`` of a viscoelastic contact.
+
+    Scaling ``xi = v tau_u X``, ``t = tau_u T`` with ``tau_u`` of
+    :func:`contact_time_scale` turns ``m xi'' = -k xi^(n-1) - A d/dt(k xi^(n-1))``
+    into ``X'' = -X^(n-1) - g d/dT(X^(n-1))``, ``X(0) = 0``, ``X'(0) = 1``, with::
+
+        g = A / tau_u = A (k / m)^(1/n) v^((n-2)/n)                  (R1)
+
+    so ``e`` depends on ``A``, ``k``, ``m`` and ``v`` through ``g`` alone; ``g``
+    does not depend on ``v`` at ``n = 2`` only (``n = 5/2``: ``g ~ A v^(1/5)``,
+    ``n = 3``: ``g ~ A v^(1/3)``).
+
+    Parameters
+    ----------
+    A : float or ndarray
+        Viscoelastic dissipation time (s).
+    speed : float or ndarray
+        Impact (relative approach) speed (m/s), > 0.
+    n : float
+        Force exponent (> 1).
+    k : float
+        Force coefficient of ``F = k xi^(n-1)`` (N/m^(n-1)).
+    m_reduced : float
+        Reduced mass (kg).
+
+    Returns
+    -------
+    float or ndarray
+        ``g``, dimensionless.
+    """
+    return A / contact_time_scale(speed, k, m_reduced, n)
+
+
+def _scaled_rhs(n, g):
+    """Right-hand side of the first-order form of the scaled contact.
+
+    With ``W = X' + g X^(n-1)`` the contact ``X'' = -P - g P'``, ``P = X^(n-1)``, is::
+
+        X' = W - g P,   W' = -P                                       (R2)
+
+    which holds no derivative of ``P`` and so no ``X^(n-2)`` (infinite at ``X = 0``
+    for ``n < 2``, non-smooth for ``n < 3``); ``P`` is taken as 0 for ``X < 0``.
+    """
+    a = n - 1.0
+
+    def rhs(t, y):
+        p = y[0] ** a if y[0] > 0.0 else 0.0
+        return np.array([y[1] - g * p, -p])
+    return rhs
+
+
+def _scaled_start(n, g):
+    """``(T0, X(T0), W(T0))`` of the start series, with terms left out below 1e-17.
+
+    From ``X = T - g int P - int int P`` (integrated (R2)), iterated twice::
+
+        X = T - g T^n/n + (n-1) g^2 T^(2n-1)/(n(2n-1)) - T^(n+1)/(n(n+1)) + ...
+        W = 1 - T^n/n + (n-1) g T^(2n-1)/(n(2n-1)) + ...
+
+    the first terms left out being ``g^3 T^(3n-2)`` and ``g T^(2n)`` (X), ``g^2
+    T^(3n-2)`` and ``T^(2n)`` (W); ``T0`` keeps them below 1e-17.
+    """
+    big = 1.0 + g
+    t0 = min(1e-2, (1e-17 / big ** 3) ** (1.0 / (3 * n - 2)), (1e-17 / big) ** (1.0 / (2 * n)))
+    tn = t0 ** n
+    third = (n - 1) * g * t0 ** (2 * n - 1) / (n * (2 * n - 1))
+    x = t0 - g * tn / n + g * third - tn * t0 / (n * (n + 1))
+    w = 1.0 - tn / n + third
+    return t0, x, w
+
+
+def _contact_end(n, g, tensile):
+    """Event function of the end of the scaled contact (terminal, decreasing).
+
+    ``tensile``: ``X = 0``. Otherwise the force ``P + g (n-1) X^(n-2) X'`` reaches 0,
+    i.e. ``X + g (n-1) X' = X + g (n-1) (W - g P) = 0`` (``X > 0``).
+    """
+    if tensile:
+        def end(t, y):
+            return y[0]
+    else:
+        a = n - 1.0
+
+        def end(t, y):
+            p = y[0] ** a if y[0] > 0.0 else 0.0
+            return y[0] + g * a * (y[1] - g * p)
+    end.terminal, end.direction = True, -1
+    return end
+
+
+def scaled_restitution(g, n, tensile=False):
+    """Restitution ``e(g)`` of the scaled viscoelastic contact, float64.
+
+    Integrates ``X'' = -X^(n-1) - g d/dT(X^(n-1))``, ``X(0) = 0``, ``X'(0) = 1``
+    (the contact of :func:`damping_group`, eq. (R1)) in the form (R2) of
+    :func:`_scaled_rhs` with DOP853 (relative tolerance 2.5e-14, the smallest scipy takes) from the start
+    series of :func:`_scaled_start`, to the end of the contact (force 0, or
+    ``X = 0`` when ``tensile``), located on the dense output and then reached by
+    a last integration; ``e = -X'(T_c) = -(W - g P)``. ``n = 2`` is the linear
+    dashpot of damping ratio ``c / (2 sqrt(k m)) = g / 2`` in closed form
+    (:func:`linear_dashpot` with ``k = m = 1``, ``c = g``).
+    Agrees with :func:`restitution_reference` to about 1e-13 (tests).
+
+    Parameters
+    ----------
+    g : float
+        Damping group (R1), dimensionless, ``>= 0``.
+    n : float
+        Force exponent (> 1).
+    tensile : bool
+        End condition (module docstring).
+
+    Returns
+    -------
+    float
+        ``e`` in [0, 1] (0 when a tensile contact never ends, ``n = 2``, ``g >= 2``).
+    """
+    if not (g >= 0 and math.isfinite(g) and n > 1):
+        raise ValueError(f"need g >= 0 finite and n > 1, got g = {g}, n = {n}")
+    if g == 0:
+        return 1.0
+    if n == 2:
+        return float(linear_dashpot(g, 1.0, 1.0, tensile).e)
+    rhs, end = _scaled_rhs(n, g), _contact_end(n, g, tensile)
+    t0, x0, w0 = _scaled_start(n, g)
+    span = (t0, t0 + 1e3 * (1.0 + g))
+    sol = solve_ivp(rhs, span, [x0, w0], method="DOP853", rtol=_RTOL, atol=_ATOL,
+                    events=end)
+    if sol.status != 1:
+        raise ArithmeticError(f"scaled contact n = {n}, g = {g} did not end")
+    tc = float(sol.t_events[0][0])
+    last = solve_ivp(rhs, (t0, tc), [x0, w0], method="DOP853", rtol=_RTOL, atol=_ATOL)
+    x, w = last.y[:, -1]
+    p = max(x, 0.0) ** (n - 1.0)
+    return float(-(w - g * p))
+
+
+def scaled_damping(e, n, tensile=False):
+    """The damping group ``g`` (eq. (R1)) whose scaled contact has restitution ``e``.
+
+    Inverse of :func:`scaled_restitution`, which decreases from 1 (``g = 0``)
+    towards 0 as ``g`` grows: Brent's method on a bracket found by doubling, to a
+    relative 4 ulp in ``g``. ``n = 2``: ``g = 2 b`` with the damping ratio ``b`` of
+    :func:`choose_damping` (closed form or one root), as the engine's linear dashpot.
+
+    Parameters
+    ----------
+    e : float
+        Target restitution, dimensionless, ``0 < e <= 1``.
+    n : float
+        Force exponent (> 1).
+    tensile : bool
+        End condition (module docstring).
+
+    Returns
+    -------
+    float
+        ``g >= 0`` (0 for ``e = 1``).
+    """
+    if not 0 < e <= 1:
+        raise ValueError(f"restitution must be in (0, 1], got {e}")
+    if not n > 1:
+        raise ValueError(f"exponent must be > 1, got {n}")
+    if e == 1:
+        return 0.0
+    if n == 2:
+        return choose_damping(e, 1.0, 1.0, tensile)
+    hi = 1.0
+    while scaled_restitution(hi, n, tensile) > e:
+        hi *= 2.0
+        if hi > 1e12:
+            raise ArithmeticError(f"restitution {e} not reached at n = {n}")
+    return optimize.brentq(lambda g: scaled_restitution(g, n, tensile) - e, 0.0, hi,
+                           xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=200)
+
+
+def solve_damping(e, speed, n, k, m_reduced, tensile=False):
+    """The viscoelastic constant ``A`` (s) giving restitution ``e`` at impact speed ``speed``.
+
+    ``A = g(e) tau_u`` with ``g(e)`` from :func:`scaled_damping` and ``tau_u =
+    (m v^(2-n) / k)^(1/n)`` (:func:`contact_time_scale`), from eq. (R1). For the
+    force ``k xi^(n-1) + A d/dt(k xi^(n-1))`` at ``n = 2`` this is ``A = c / k``
+    with ``c`` of :func:`choose_damping`, the same at every speed (``speed`` may
+    be None there); for ``n != 2`` the contact has restitution ``e`` at ``speed``
+    only (eq. (R1): ``g ~ A v^((n-2)/n)``).
+
+    Parameters
+    ----------
+    e : float
+        Target restitution, dimensionless, ``0 < e <= 1``.
+    speed : float or None
+        Impact (relative approach) speed at which ``e`` holds (m/s), > 0; unused
+        (may be None) at ``n = 2``.
+    n : float
+        Force exponent (> 1).
+    k : float
+        Force coefficient of ``F = k xi^(n-1)`` (N/m^(n-1)), > 0.
+    m_reduced : float
+        Reduced mass (kg), > 0 (the granule's mass against a wall).
+    tensile : bool
+        End condition (module docstring).
+
+    Returns
+    -------
+    float
+        ``A`` in s.
+    """
+    if not (k > 0 and m_reduced > 0):
+        raise ValueError("need k > 0 and m_reduced > 0")
+    if n == 2:
+        return choose_damping(e, k, m_reduced, tensile) / k
+    if speed is None or not (speed > 0 and math.isfinite(speed)):
+        raise ValueError(f"n = {n}: e depends on the impact speed; need speed > 0, got {speed}")
+    return scaled_damping(e, n, tensile) * float(contact_time_scale(speed, k, m_reduced, n))

@@ -305,17 +305,19 @@ class Granules(_Strict):
 
     @model_validator(mode="after")
     def _draws_in_bounds(self) -> "Granules":
-        """Refuse a distribution whose drawn values break the field's bounds."""
+        """Refuse a recipe whose values break the field's bounds (masses and radii:
+        also the range SCALE_MIN .. SCALE_MAX of one number)."""
         n, fr = self.count, self.friction
-        for path, value, bound, size, item in (
-                ("mass", self.mass, "positive", n, "granule"),
-                ("radius", self.radius, "positive", n, "granule"),
-                ("gap", self.gap, "finite", n - 1, "contact"),
-                ("velocity", self.velocity, "finite", n, "granule"),
-                ("friction.kinetic", fr.kinetic, "nonnegative", n, "granule"),
-                ("friction.static", fr.static, "nonnegative", n, "granule"),
-                ("friction.viscous", fr.viscous, "nonnegative", n, "granule")):
-            problem = check_draw(value, size, bound, item) if is_recipe(value) else ""
+        scale = (SCALE_MIN, SCALE_MAX)
+        for path, value, bound, size, item, limits in (
+                ("mass", self.mass, "positive", n, "granule", scale),
+                ("radius", self.radius, "positive", n, "granule", scale),
+                ("gap", self.gap, "finite", n - 1, "contact", None),
+                ("velocity", self.velocity, "finite", n, "granule", None),
+                ("friction.kinetic", fr.kinetic, "nonnegative", n, "granule", None),
+                ("friction.static", fr.static, "nonnegative", n, "granule", None),
+                ("friction.viscous", fr.viscous, "nonnegative", n, "granule", None)):
+            problem = check_draw(value, size, bound, item, limits) if is_recipe(value) else ""
             if problem:
                 raise _FieldProblem(f"granules.{path}", problem)
         return self
@@ -327,8 +329,11 @@ class Damping(_Strict):
     ``linear``: F_d = c d(delta)/dt (any exponent). ``viscoelastic``: F_d = A
     d/dt(k delta^(n-1)) = A k (n-1) delta^(n-2) d(delta)/dt (for n = 5/2 the
     Kuwabara-Kono / Brilliantov et al. viscoelastic Hertz force). ``restitution``:
-    the linear dashpot whose two-body coefficient of restitution is ``value``
-    (n = 2 only). The wall contacts are damped alike (the wall as an infinite mass).
+    the dashpot whose two-body coefficient of restitution is ``value`` at the impact
+    speed ``speed``: at n = 2 the linear dashpot (e holds at every speed; ``speed``
+    is not needed), otherwise the viscoelastic one with A from
+    :func:`granular_chain.restitution.solve_damping` (e depends on the speed there).
+    The wall contacts are damped alike (the wall as an infinite mass).
     """
 
     model: Literal["linear", "viscoelastic", "restitution"] = Field(
@@ -338,6 +343,9 @@ class Damping(_Strict):
     value: Optional[Annotated[float, Num, Field(gt=0, le=1)]] = Field(
         None, description="Coefficient of restitution e in (0, 1] of two touching granules "
         "(model restitution; the granule and the wall for a wall contact).")
+    speed: Optional[Positive] = Field(
+        None, description="Impact (relative approach) speed at which value (e) holds "
+        "(model restitution; needed when an exponent is not 2, where e depends on the speed).")
 
     @model_validator(mode="after")
     def _one_parameter(self) -> "Damping":
@@ -347,6 +355,9 @@ class Damping(_Strict):
             if self.coefficient is not None:
                 raise _FieldProblem("coefficient", "model restitution takes value (e), "
                                     "not coefficient")
+        elif self.speed is not None:
+            raise _FieldProblem("speed", f"speed belongs to model restitution; model "
+                                f"{self.model} takes coefficient")
         else:
             if self.coefficient is None:
                 what = "c (mass/time)" if self.model == "linear" else "A (time)"
@@ -361,16 +372,31 @@ class Contacts(_Strict):
     """One-sided power-law contacts: force k * delta^(n-1) while delta > 0."""
 
     exponent: Union[Exponent, list[Exponent]] = Field(
-        2.0, description="Exponent n of the potential (2 linear, 2.5 Hertz); force ~ delta^(n-1).")
+        2.0, description="Exponent n of the potential (2 linear, 2.5 Hertz); force ~ delta^(n-1); "
+        "2.5 by default with stiffness: hertz.")
     stiffness: Union[Literal["hertz"], PerItemScale] = Field(
         1.0,
         description="Force coefficient k (force = k delta^(n-1)), one value or N-1 values, "
-        "or 'hertz' to compute k = (4/3) E* sqrt(R*) from granules.material (then n = 5/2).")
+        "or 'hertz' to compute k = (4/3) E* sqrt(R*) from granules.material (then the "
+        "exponent is 2.5, its default).")
     damping: Optional[Damping] = Field(
         None, description="Dissipation inside the contacts (absent: elastic contacts).")
     tensile: Bool = Field(
         False, description="false: the total contact force never pulls and the contact ends "
         "when it reaches zero; true: the contact ends at overlap 0 and may pull before.")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _hertz_exponent(cls, data):
+        """``stiffness: hertz`` without an exponent means the Hertz exponent 5/2."""
+        return _hertz_default_exponent(data)
+
+
+def _hertz_default_exponent(data):
+    """A contacts or wall mapping with ``stiffness: hertz`` and no exponent gets 2.5."""
+    if isinstance(data, dict) and data.get("stiffness") == "hertz" and "exponent" not in data:
+        return {**data, "exponent": 2.5}
+    return data
 
 
 class Sine(_Strict):
@@ -403,16 +429,49 @@ class WallMotion(_Strict):
         return self
 
 
+class WallMaterial(_Strict):
+    """Elastic constants of a wall, for its Hertz stiffness (sphere on a flat)."""
+
+    young: Scale = Field(..., description="Young's modulus E of the wall.")
+    poisson: Poisson = Field(..., description="Poisson ratio of the wall, in (-1, 0.5).")
+
+
 class Wall(_Strict):
     """A wall beyond an end granule, with the same one-sided contact law; fixed
     unless it has a motion."""
 
     gap: Finite = Field(0.0, description="Gap between the wall and the end granule.")
-    stiffness: Scale = Field(1.0, description="Force coefficient k of the wall contact.")
+    stiffness: Union[Literal["hertz"], Scale] = Field(
+        1.0, description="Force coefficient k of the wall contact, or 'hertz' to compute "
+        "k = (4/3) E* sqrt(r) (a sphere of radius r on a flat) from the wall's material and "
+        "the end granule's granules.material (then the exponent is 2.5, its default).")
     exponent: Exponent = Field(
-        2.0, description="Exponent n of the wall contact.")
+        2.0, description="Exponent n of the wall contact (2.5 by default with stiffness: "
+        "hertz).")
+    material: Optional[WallMaterial] = Field(
+        None, description="Elastic constants of the wall (young, poisson), used when its "
+        "stiffness is 'hertz'.")
     motion: Optional[WallMotion] = Field(
         None, description="Prescribed motion (absent: the wall is fixed).")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _hertz_exponent(cls, data):
+        """``stiffness: hertz`` without an exponent means the Hertz exponent 5/2."""
+        return _hertz_default_exponent(data)
+
+    @model_validator(mode="after")
+    def _hertz_needs_material(self) -> "Wall":
+        if self.stiffness == "hertz":
+            if self.material is None:
+                raise _FieldProblem("stiffness", "'hertz' needs the wall's material "
+                                    "(young, poisson)")
+            if self.exponent != 2.5:
+                raise _FieldProblem("exponent", "must be 2.5 when stiffness is 'hertz' "
+                                    "(Hertz law for a sphere on a flat)")
+        elif self.material is not None:
+            raise _FieldProblem("material", "is read only with stiffness: hertz")
+        return self
 
 
 class BodyForce(_Strict):
@@ -650,6 +709,11 @@ class Scene(_Strict):
             if any(e != 2.5 for e in (exps if isinstance(exps, list) else [exps])):
                 raise _FieldProblem("contacts.exponent",
                                     "must be 2.5 when stiffness is 'hertz' (Hertz law for spheres)")
+        for side in ("left", "right"):
+            wall = getattr(self.walls, side)
+            if wall is not None and wall.stiffness == "hertz" and self.granules.material is None:
+                raise _FieldProblem(f"walls.{side}.stiffness",
+                                    "'hertz' needs granules.material (young, poisson)")
         fr = self.granules.friction
         if fr.static is not None:
             kin, sta = np.broadcast_arrays(_array(fr.kinetic, n), _array(fr.static, n))
@@ -724,25 +788,20 @@ class Scene(_Strict):
 
 
     def _check_dissipation_and_forces(self, n: int) -> None:
-        """Restitution is a property of linear contacts only; per-granule body
-        forces need one value per granule."""
+        """Restitution away from n = 2 needs the speed at which e holds; per-granule
+        body forces need one value per granule."""
         damping = self.contacts.damping
-        if damping is not None and damping.model == "restitution":
+        if damping is not None and damping.model == "restitution" and damping.speed is None:
             exps = self.contacts.exponent
-            exps = list(exps) if isinstance(exps, list) else [exps]
-            for side in ("left", "right"):
-                wall = getattr(self.walls, side)
-                if wall is not None and wall.exponent != 2.0:
-                    raise _FieldProblem(
-                        "contacts.damping.model", f"restitution sets a linear dashpot from e, "
-                        f"which is exact for n = 2 only, but walls.{side}.exponent is "
-                        f"{wall.exponent}: use model linear or viscoelastic")
-            if any(e != 2.0 for e in exps):
-                bad = next(e for e in exps if e != 2.0)
+            named = [("contacts.exponent", e) for e in (exps if isinstance(exps, list) else [exps])]
+            named += [(f"walls.{side}.exponent", getattr(self.walls, side).exponent)
+                      for side in ("left", "right") if getattr(self.walls, side) is not None]
+            bad = next(((path, e) for path, e in named if e != 2.0), None)
+            if bad is not None:
                 raise _FieldProblem(
-                    "contacts.damping.model", f"restitution sets a linear dashpot from e, "
-                    f"which is exact for n = 2 only, but contacts.exponent is {bad}: use "
-                    f"model linear (c) or viscoelastic (A)")
+                    "contacts.damping.speed", f"model restitution needs speed (the impact "
+                    f"speed at which e = {damping.value} holds): {bad[0]} is {bad[1]}, and "
+                    f"for n != 2 e depends on the speed")
         moving = any(w is not None and w.motion is not None
                      for w in (self.walls.left, self.walls.right))
         if (self.output.events and self.run.stepper == "verlet"
@@ -831,7 +890,7 @@ def _submodel(annotation) -> Optional[type[BaseModel]]:
 
 
 _TYPE_TAGS = {"float", "int", "str", "bool", "list", "dict", "none",
-              "uniform", "normal", "lognormal"}  # the last three: distribution recipes
+              "uniform", "normal", "lognormal", "taper", "repeat"}  # the last five: recipes
 
 
 def _is_tag(part) -> bool:
@@ -915,8 +974,9 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
             p for p in (path, fp.path) if p)
         return SceneError(source, whole, fp.problem)
     if err_type == "union_tag_invalid":
-        return SceneError(source, f"{path}.distribution", "must be uniform, normal or "
-                          f"lognormal (got {first.get('ctx', {}).get('tag')!r})")
+        return SceneError(source, f"{path}.distribution", "must be taper, repeat, uniform, "
+                          f"normal or lognormal (got {first.get('ctx', {}).get('tag')!r}; "
+                          f"see docs/chains.md, Per-granule values)")
     if err_type == "value_error" and path.split(".")[-1] in ("mass", "radius", "gap", "velocity",
                                                            "kinetic", "static", "viscous"):
         return SceneError(source, path, first["msg"].removeprefix("Value error, "))

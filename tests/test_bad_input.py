@@ -228,7 +228,7 @@ EXTREMES = [
      ["output.every", "set output.every"]),
     ("damping-restitution-hertz", {"contacts.exponent": 2.5,
                                    "contacts.damping": {"model": "restitution", "value": 0.8}},
-     ["contacts.damping.model", "n = 2 only"]),
+     ["contacts.damping.speed", "needs speed", "depends on the speed"]),
     ("damping-no-coefficient", {"contacts.damping": {"model": "linear"}},
      ["contacts.damping.coefficient", "needs coefficient"]),
     ("damping-events-verlet", {"contacts.damping": {"model": "linear", "coefficient": 0.1},

@@ -101,3 +101,62 @@ def test_drawn_values_meet_the_scene_checks():
     with pytest.raises(gc.SceneError, match="granules.friction.static: static threshold"):
         _scene(friction={"kinetic": {"distribution": "uniform", "low": 0.1, "high": 0.2,
                                      "seed": 4}, "static": 0.15})
+
+
+def test_taper_and_repeat_are_their_formulas():
+    """taper: first * ratio**i; repeat: values[i % len(values)]; per granule and per contact."""
+    scene = _scene(count=7, radius={"distribution": "taper", "first": 0.5, "ratio": 0.97},
+                   mass={"distribution": "repeat", "values": [1.0, 0.25]},
+                   gap={"distribution": "repeat", "values": [0.0, 0.1, 0.2]},
+                   velocity={"distribution": "taper", "first": -2.0, "ratio": 0.5})
+    model = build_model(scene)
+    for i in range(7):
+        assert model.radius[i] == pytest.approx(0.5 * 0.97 ** i, rel=1e-15)
+        assert model.mass[i] == (1.0 if i % 2 == 0 else 0.25)
+        assert model.v0[i] == -2.0 / 2 ** i  # exact: powers of two
+    assert np.array_equal(-model.d0, [0.0, 0.1, 0.2, 0.0, 0.1, 0.2])
+    # mass tapering as radius**3 (one density): ratio 0.97**3
+    tapered = _scene(count=50, mass={"distribution": "taper", "first": 1.0, "ratio": 0.97 ** 3})
+    assert build_model(tapered).mass[-1] == pytest.approx(0.97 ** 147, rel=1e-13)
+
+
+@pytest.mark.parametrize("granules, field, words", [
+    ({"radius": {"distribution": "taper", "first": 0.5, "ratio": 0.0}}, "granules.radius.ratio",
+     "greater than 0"),
+    ({"radius": {"distribution": "taper", "first": 0.5, "ratio": -0.9}}, "granules.radius.ratio",
+     "greater than 0"),
+    ({"mass": {"distribution": "repeat", "values": []}}, "granules.mass.values", "at least 1"),
+    ({"mass": {"distribution": "repeat", "values": [1.0, -0.5]}}, "granules.mass",
+     "repeat values give -0.5 for granule 1"),
+    ({"mass": {"distribution": "taper", "first": -1.0, "ratio": 0.9}}, "granules.mass",
+     "values must be > 0"),
+    ({"radius": {"distribution": "taper", "first": 1.0, "ratio": 1e-20}}, "granules.radius",
+     "change first or ratio"),
+    ({"mass": {"distribution": "taper", "first": 1.0, "ratio": 1e20}}, "granules.mass",
+     "not finite"),
+    ({"mass": {"distribution": "taper", "first": 1.0, "ratio": 1e4}}, "granules.mass",
+     "values must be within 1.49e-154 .. 6.7e+153"),
+    ({"friction": {"kinetic": {"distribution": "repeat", "values": [0.1, -0.1]}}},
+     "granules.friction.kinetic", "values must be >= 0"),
+    ({"radius": {"distribution": "geometric", "first": 1.0, "ratio": 0.9}},
+     "granules.radius.distribution", "must be taper, repeat, uniform, normal or lognormal"),
+    ({"radius": {"distribution": "taper", "first": 1.0}}, "granules.radius.ratio", "required"),
+])
+def test_bad_taper_and_repeat_name_the_field(granules, field, words):
+    """ratio <= 0, an empty pattern, values out of the field's bounds after tapering
+    (including the representable range 2^-511 .. 2^511 of masses and radii)."""
+    with pytest.raises(gc.SceneError) as err:
+        _scene(count=50, **granules)
+    assert err.value.field == field and words in err.value.problem, (err.value.field,
+                                                                     err.value.problem)
+
+
+def test_taper_refusal_is_one_line_exit_2(tmp_path, capsys):
+    from granular_chain.cli import main
+    path = tmp_path / "t.yaml"
+    path.write_text("name: t\ngranules: {count: 5, radius: {distribution: taper, first: 0.5, "
+                    "ratio: 0}}\n")
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "t.yaml" in err[0] and "granules.radius.ratio" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.yaml"]

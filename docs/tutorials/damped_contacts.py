@@ -6,6 +6,8 @@
 2. The linear dashpot chosen for a target restitution (n = 2): e comes out exact.
 3. A column settling on a wall under gravity, against delta_i = (i m g / k)^(2/3).
 4. A chain driven by an oscillating wall: where the wall's work goes.
+5. A target restitution for any exponent: e = 0.9 at impact speed 1 for n = 5/2
+   and n = 3, the curves e(v) from scaled_restitution and the engine's points.
 """
 
 from pathlib import Path
@@ -14,7 +16,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import granular_chain as gc
-from granular_chain.restitution import column_overlaps, restitution_reference, viscoelastic_series
+from granular_chain.restitution import (column_overlaps, damping_group, restitution_reference,
+                                        scaled_restitution, solve_damping, viscoelastic_series)
 
 STEPPER = "event"
 SCENES = Path(__file__).resolve().parents[2] / "scenarios"
@@ -87,3 +90,28 @@ ax.legend(fontsize=8)
 fig.savefig("driven_ledger.png", dpi=120)
 print(f"\ndriven chain: the wall did {led.wall_work[-1]:.4g}; the contacts dissipated "
       f"{led.contact_dissipated[-1]:.4g}; ledger error {led.balance_error:.1e}")
+
+# 5. a target restitution for any exponent: e = 0.9 at impact speed 1
+target = {"model": "restitution", "value": 0.9, "speed": 1.0}
+curve_speeds = np.logspace(-4, 1, 61)
+fig, ax = plt.subplots(figsize=(6.4, 4.2), constrained_layout=True)
+print("\nrestitution 0.9 at speed 1: e(v) of the engine and of scaled_restitution")
+for colour, n in (("C0", 2.5), ("C3", 3.0)):
+    A_n = solve_damping(0.9, 1.0, n, 1.0, m_eff)
+    curve = [scaled_restitution(damping_group(A_n, v, n, 1.0, m_eff), n) for v in curve_speeds]
+    ax.semilogx(curve_speeds, curve, "-", color=colour, label=f"n = {n:g}: scaled_restitution")
+    points = np.array([1e-3, 1e-2, 1e-1, 1.0])
+    measured = [two_granules(v, target, n) for v in points]
+    ax.semilogx(points, measured, "o", mfc="none", color=colour,
+                label=f"n = {n:g}: engine ({STEPPER} stepper)")
+    for v, e in zip(points, measured):
+        expected = scaled_restitution(damping_group(A_n, v, n, 1.0, m_eff), n)
+        print(f"  n = {n:g}, v = {v:7.0e}: e = {e:.12f}, scaled_restitution {expected:.12f}, "
+              f"difference {e - expected:+.1e}")
+ax.axhline(0.9, color="0.6", lw=0.6)
+ax.axvline(1.0, color="0.6", lw=0.6)
+ax.set_xlabel(r"impact speed $v$ (scaled: $k = 1$, $m^* = 1/2$)")
+ax.set_ylabel(r"restitution $e$")
+ax.set_title(r"model: restitution, value: 0.9, speed: 1")
+ax.legend(fontsize=8)
+fig.savefig("restitution_any_exponent.png", dpi=120)
