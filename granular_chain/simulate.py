@@ -13,11 +13,13 @@ from typing import Optional, Sequence, Union
 import numba
 import numpy as np
 
+from ._compile import compile_scope
 from .budget import check_budget
 from .errors import SimulationError
 from .frames import Frame, FrameLog
 from .ledger import ledger_verdict
 from .model import Model
+from .notices import OverlapWarning, TimeStepWarning, warn
 from .result import Result
 from .scene import Scene
 from .steppers.verlet.driver import (  # noqa: F401  (re-exported: benchmarks and tests)
@@ -110,6 +112,16 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     SimulationError
         The run cannot start (for example dt too large for the stiffest contact).
 
+    Warns
+    -----
+    OverlapWarning
+        Granules i and i+2 overlapped at a frame (the model ignores that contact).
+    TimeStepWarning
+        run.dt was shortened so that the frames fall on steps.
+    CompileNotice
+        Kernels are being compiled for a feature set numba has not cached
+        (:mod:`granular_chain.notices`; also logged on the ``granular_chain`` logger).
+
     Notes
     -----
     SIGINT (Ctrl-C) and SIGTERM during the run end it within about
@@ -118,6 +130,36 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     their default effect).
     """
     model = preflight(scene)
+    with compile_scope(feature_words(scene.run.stepper, model.features.describe())):
+        return _run(scene, model, progress, writers, keep_frames, thermo, checkpoint, resume)
+
+
+def feature_words(stepper: str, features: dict) -> str:
+    """A feature set in words, for the compile notice: ``"verlet stepper: hertz
+    (n=5/2), coulomb, left_wall"``.
+
+    Parameters
+    ----------
+    stepper : str
+        ``verlet`` or ``event``.
+    features : dict
+        :meth:`granular_chain.model.Features.describe`.
+
+    Returns
+    -------
+    str
+        One line.
+    """
+    words = [features["law"]]
+    words += [k for k, v in features.items() if v is True]
+    words += [f"{k} {v}" for k, v in features.items()
+              if k != "law" and isinstance(v, str) and v != "none"]
+    return f"{stepper} stepper: {', '.join(words)}"
+
+
+def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, checkpoint,
+         resume) -> Result:
+    """:func:`simulate` once the scene is checked and packed into ``model``."""
     watch = NeighbourWatch(model.radius)
     log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
     every = scene.output.checkpoint_every
@@ -141,6 +183,9 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     warning = watch.warning
     if warning:
         result.info.setdefault("warnings", []).append(warning)
+    for text in result.info.get("warnings", []):  # kept in info too (summary.json)
+        # (stacklevel 3: said at the line that called simulate)
+        warn(text, OverlapWarning if text == warning else TimeStepWarning, stacklevel=3)
     if scene.run.energy_tolerance is not None:
         result.status, result.message = ledger_verdict(result, scene.run.energy_tolerance,
                                                        "run.energy_tolerance")
