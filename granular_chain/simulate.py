@@ -130,31 +130,8 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     their default effect).
     """
     model = preflight(scene)
-    with compile_scope(feature_words(scene.run.stepper, model.features.describe())):
+    with compile_scope(f"{scene.run.stepper} stepper: {model.features.in_words()}"):
         return _run(scene, model, progress, writers, keep_frames, thermo, checkpoint, resume)
-
-
-def feature_words(stepper: str, features: dict) -> str:
-    """A feature set in words, for the compile notice: ``"verlet stepper: hertz
-    (n=5/2), coulomb, left_wall"``.
-
-    Parameters
-    ----------
-    stepper : str
-        ``verlet`` or ``event``.
-    features : dict
-        :meth:`granular_chain.model.Features.describe`.
-
-    Returns
-    -------
-    str
-        One line.
-    """
-    words = [features["law"]]
-    words += [k for k, v in features.items() if v is True]
-    words += [f"{k} {v}" for k, v in features.items()
-              if k != "law" and isinstance(v, str) and v != "none"]
-    return f"{stepper} stepper: {', '.join(words)}"
 
 
 def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, checkpoint,

@@ -23,6 +23,7 @@ from granular_chain.notices import COMPILE_NOTICE
 
 ROOT = Path(__file__).resolve().parents[1]
 HERTZ = str(ROOT / "scenarios" / "hertz_chain.yaml")
+TWO = str(ROOT / "scenarios" / "two_granules.yaml")
 # radius 0.5: the pulse's neighbouring overlaps add up to more than a diameter
 # (1.18 > 1), so granules 0 and 2 overlap; output.dt = 0.5 is no multiple of
 # run.dt = 0.0097, so the step is shortened to 0.5/52
@@ -58,7 +59,7 @@ def test_cli_prints_each_warning_as_one_line_on_stderr(tmp_path, capsys):
     assert len(lines) == 2
     assert lines[0].startswith("granular-chain: warning: run.dt shortened from 0.0097 ")
     assert lines[1].startswith("granular-chain: warning: granules 0 and 2 overlap at t = 1.5 ")
-    assert "warning" not in captured.out  # the report on stdout does not repeat them
+    assert "warning:" not in captured.out  # the report on stdout does not repeat them
     # summary.json still lists them
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert [w[:20] for w in summary["warnings"]] == [lines[0][25:45], lines[1][25:45]]
@@ -74,6 +75,14 @@ def test_show_warning_formats(capsys):
         f"granular-chain: {COMPILE_NOTICE}: x",
         "granular-chain: frame.png skipped: y",
         "granular-chain: warning: DeprecationWarning: old"]
+
+
+def test_a_feature_set_in_words():
+    from granular_chain.model import build_model
+
+    words = build_model(gc.load_scene(ROOT / "scenarios" / "damped_chain.yaml")).features
+    assert build_model(gc.load_scene(TWO)).features.in_words() == "linear (n=2), coulomb"
+    assert words.in_words() == "hertz (n=5/2), damping viscoelastic"
 
 
 def _fresh_kernel():
@@ -142,7 +151,7 @@ print(json.dumps({"first": [[w.category.__name__, str(w.message)] for w in first
     assert done.returncode == 0, done.stderr
     out = json.loads(done.stdout.strip().splitlines()[-1])
     notices = [m for c, m in out["first"] if c == "CompileNotice"]
-    assert len(notices) == 1 and notices[0].startswith(f"{COMPILE_NOTICE}: verlet stepper: ")
+    assert notices == [f"{COMPILE_NOTICE}: verlet stepper: linear (n=2), coulomb"]
     assert any(s.startswith("compiling ") for s in out["logged"])
     assert any(re.fullmatch(r"compiled \w+ in \d+\.\d s", s) for s in out["logged"])
     assert out["second"] == [] and out["after"] == []
