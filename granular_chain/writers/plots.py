@@ -431,4 +431,5 @@ def frame_unavailable(scene) -> str:
     """
     if scene is None:
         return "frame.png skipped: no scene stored with the run"
+    _prefer_egl()  # before VTK is first imported
     return missing(("pyvista", "vtkmodules"), "frame.png skipped")
