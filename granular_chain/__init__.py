@@ -34,11 +34,21 @@ def _drop_stale_kernels() -> None:
 
 _drop_stale_kernels()
 
+from .extras import MissingExtraError  # noqa: E402
+from .notices import (  # noqa: E402
+    CompileNotice,
+    GranularChainWarning,
+    OverlapWarning,
+    PlotSkippedWarning,
+    TimeStepWarning,
+)
 from .readback import read_run  # noqa: E402
 from .result import Event, Result, Status  # noqa: E402
 from .scene import Scene, SceneError, load_scene, scene_from_dict  # noqa: E402
 from .simulate import SimulationError, simulate  # noqa: E402
 
 __all__ = ["Scene", "SceneError", "load_scene", "scene_from_dict", "simulate", "Result",
-           "Status", "Event", "SimulationError", "read_run"]
+           "Status", "Event", "SimulationError", "read_run", "MissingExtraError",
+           "GranularChainWarning", "OverlapWarning", "TimeStepWarning", "PlotSkippedWarning",
+           "CompileNotice"]
 __version__ = "0.1.0"

@@ -16,11 +16,16 @@ costs a fraction of a microsecond per call.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import hashlib
 import os
+import time
 
 import numba
 from numba import types
+from numba.core import event
+
+from .notices import COMPILE_NOTICE, CompileNotice, logger, warn
 
 _ENTRIES: dict = {}
 
@@ -61,11 +66,84 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     if entry is None:
         sig = tuple(_literal_type(a) if i in literal else numba.typeof(a)
                     for i, a in enumerate(args))
-        with _compile_lock(dispatcher, sig):
+        with _compile_lock(dispatcher, sig), _CompileWatch(dispatcher):
             dispatcher.compile(sig)  # compile, or load from the on-disk cache
         entry = dispatcher.overloads[sig].entry_point
         _ENTRIES[key] = entry
     return entry
+
+
+#: The notice scope of the code running (:func:`compile_scope`): what is being run, and
+#: whether the notice was given.
+_SCOPE: contextvars.ContextVar = contextvars.ContextVar("granular_chain_compile_scope",
+                                                        default=None)
+
+
+@contextlib.contextmanager
+def compile_scope(what: str):
+    """Within: the kernels compiled are announced once, as for ``what`` (a run compiles
+    several kernels of one feature set; one notice says so). Nested scopes join the
+    outermost.
+
+    Parameters
+    ----------
+    what : str
+        The feature set in words (``"verlet stepper: hertz (n=5/2)"``).
+
+    Yields
+    ------
+    None
+    """
+    if _SCOPE.get() is not None:
+        yield
+        return
+    token = _SCOPE.set({"what": what, "said": False})
+    try:
+        yield
+    finally:
+        _SCOPE.reset(token)
+
+
+class _CompileWatch(event.Listener):
+    """Around one ``dispatcher.compile``: numba signals "numba:compile" only when it
+    compiles (a kernel loaded from its cache does not), so the first signal is the
+    moment to announce it: :class:`~granular_chain.notices.CompileNotice` (a warning:
+    notebooks and the command line show it) and the ``granular_chain`` logger."""
+
+    def __init__(self, dispatcher):
+        self.name = getattr(dispatcher, "__name__", "kernel")
+        self.start = None
+        self._installed = None
+
+    def on_start(self, ev) -> None:
+        if self.start is not None:
+            return  # the kernel's callees compile inside it: one notice
+        self.start = time.perf_counter()
+        scope = _SCOPE.get()
+        if scope is None:
+            message = f"{COMPILE_NOTICE}: {self.name}"
+        elif not scope["said"]:
+            scope["said"] = True
+            message = f"{COMPILE_NOTICE}: {scope['what']}"
+        else:
+            message = ""
+        logger.info("compiling %s", self.name)
+        if message:
+            warn(message, CompileNotice, stacklevel=1)
+
+    def on_end(self, ev) -> None:
+        pass
+
+    def __enter__(self):
+        self._installed = event.install_listener("numba:compile", self)
+        self._installed.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        self._installed.__exit__(*exc)
+        if self.start is not None:
+            logger.info("compiled %s in %.1f s", self.name,
+                        time.perf_counter() - self.start)
 
 
 def _literal_type(a):

@@ -74,6 +74,21 @@ class Features:
         """No dashpot, no body force, no moving wall: the features of the paper."""
         return self.damping == DAMPING_NONE and not self.body_force and not self.driven
 
+    def in_words(self) -> str:
+        """The features in one line, for the compile notice: ``"hertz (n=5/2), coulomb,
+        left_wall, damping linear"``.
+
+        Returns
+        -------
+        str
+            The law, then the flags that are set, then the named options not 'none'.
+        """
+        said = self.describe()
+        words = [said["law"]] + [k for k, v in said.items() if v is True]
+        words += [f"{k} {v}" for k, v in said.items()
+                  if k != "law" and isinstance(v, str) and v != "none"]
+        return ", ".join(words)
+
     def describe(self) -> dict:
         """The features as a JSON-ready dict of names (law, damping) and flags.
 

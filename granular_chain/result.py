@@ -6,25 +6,16 @@ every way a run can end has its own), a human ``message`` and ``success``.
 
 from __future__ import annotations
 
+import html
 from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
 
 from .codes import Status
+from .extras import require
 
 __all__ = ["Status", "Event", "EnergyLedger", "Result", "TERMS_ADDED", "ledger_balance"]
-
-
-def _need(module: str, extra: str, what: str):
-    """Import an optional dependency, or say in one line which extra installs it."""
-    import importlib
-
-    try:
-        return importlib.import_module(module)
-    except ImportError:
-        raise ImportError(f"{what} needs {module}: pip install 'granular_chain[{extra}]'") \
-            from None
 
 
 # What a run ending with Status.OVERLAP tells the user to change.
@@ -289,6 +280,41 @@ class Result:
         return (f"Result({who}N={self.x_final.size}, frames={self.t.size}, steps={self.steps}, "
                 f"status={self.status}, t={self.t_final:.6g})")
 
+    def _repr_html_(self) -> str:
+        """An HTML table of the run for notebooks: status, message, time reached, size,
+        steps and events, the energy ledger's last frame and its balance error, wall
+        time and warnings (every text escaped).
+
+        Returns
+        -------
+        str
+            A ``<table>`` element.
+        """
+        name = self.scene.name if self.scene is not None else self.info.get("scene_name")
+        steps = "mode segments" if self.stepper == "event" else "steps"
+        counts = ", ".join(f"{k} {n}" for k, n in sorted(self.event_counts.items()) if n)
+        led = self.energy.final()
+        rows = [("scene", name or "-"),
+                ("status", f"{self.status.name.lower()} ({int(self.status)})"),
+                ("success", "yes" if self.success else "no"), ("message", self.message),
+                ("stepper", self.stepper + (f", dt = {self.dt:.6g}" if self.dt else "")),
+                ("t_final", f"{self.t_final:.10g}"), ("granules (N)", str(self.x_final.size)),
+                ("frames", str(self.t.size)), (steps, str(self.steps)),
+                ("events", f"{len(self.events)}" + (f" ({counts})" if counts else ""))]
+        rows += [(f"energy: {k}", f"{led[k]:.6g}") for k in (
+            "initial", "kinetic", "potential", "friction_dissipated", "viscous_dissipated",
+            "contact_dissipated", "wall_work", "body_work") if led[k] or k in (
+            "initial", "kinetic", "potential")]
+        rows += [("energy balance error (relative)", f"{self.energy.balance_error:.3g}"),
+                 ("wall time", f"{self.wall_time:.3g} s")]
+        rows += [("warning", w) for w in self.info.get("warnings", [])]
+        colour = "#1a7f37" if self.success else "#cf222e"
+        body = "".join(
+            f"<tr><th style='text-align:left'>{html.escape(k)}</th>"
+            f"<td style='text-align:left'>{html.escape(str(v))}</td></tr>" for k, v in rows)
+        return (f"<table><caption style='text-align:left; color:{colour}'><b>Result</b> "
+                f"{html.escape(str(name or ''))}</caption>{body}</table>")
+
     def to_xarray(self):
         """The frames as an ``xarray.Dataset``, dimensions (time, granule), laid out as
         trajectory.h5 (needs the ``analysis`` extra).
@@ -299,7 +325,7 @@ class Result:
             Variables x, v, f (time, granule), the ledger terms (time), per-granule
             constants and the final state (granule), the event log (event); scene units.
         """
-        _need("xarray", "analysis", "Result.to_xarray")
+        require("xarray", "Result.to_xarray")
         from .writers.trajectory import to_xarray
         return to_xarray(self, self.scene)
 
@@ -313,7 +339,7 @@ class Result:
             One row per event: step (int, -1 for the event stepper), t (scene units of
             time), kind (str), index (int).
         """
-        pd = _need("pandas", "analysis", "Result.events_frame")
+        pd = require("pandas", "Result.events_frame")
         return pd.DataFrame({"step": np.array([e.step for e in self.events], dtype=np.int64),
                              "t": np.array([e.t for e in self.events], dtype=np.float64),
                              "kind": pd.Series([e.kind for e in self.events], dtype=object),
@@ -329,7 +355,7 @@ class Result:
         pandas.DataFrame
             Shape (F, 9), scene units of energy.
         """
-        pd = _need("pandas", "analysis", "Result.ledger_frame")
+        pd = require("pandas", "Result.ledger_frame")
         led = self.energy
         return pd.DataFrame({"kinetic": led.kinetic, "potential": led.potential,
                              "coulomb": led.coulomb, "viscous": led.viscous,

@@ -13,11 +13,13 @@ from typing import Optional, Sequence, Union
 import numba
 import numpy as np
 
+from ._compile import compile_scope
 from .budget import check_budget
 from .errors import SimulationError
 from .frames import Frame, FrameLog
 from .ledger import ledger_verdict
 from .model import Model
+from .notices import OverlapWarning, TimeStepWarning, warn
 from .result import Result
 from .scene import Scene
 from .stages import run_stages
@@ -114,6 +116,16 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     SimulationError
         The run cannot start (for example dt too large for the stiffest contact).
 
+    Warns
+    -----
+    OverlapWarning
+        Granules i and i+2 overlapped at a frame (the model ignores that contact).
+    TimeStepWarning
+        run.dt was shortened so that the frames fall on steps.
+    CompileNotice
+        Kernels are being compiled for a feature set numba has not cached
+        (:mod:`granular_chain.notices`; also logged on the ``granular_chain`` logger).
+
     Notes
     -----
     SIGINT (Ctrl-C) and SIGTERM during the run end it within about
@@ -154,6 +166,13 @@ def _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint,
                   resume) -> Result:
     """:func:`simulate` of one unstaged run (its parameters)."""
     model = preflight(scene)
+    with compile_scope(f"{scene.run.stepper} stepper: {model.features.in_words()}"):
+        return _run(scene, model, progress, writers, keep_frames, thermo, checkpoint, resume)
+
+
+def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, checkpoint,
+         resume) -> Result:
+    """:func:`simulate` once the scene is checked and packed into ``model``."""
     watch = NeighbourWatch(model.radius)
     log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
     every = scene.output.checkpoint_every
@@ -177,6 +196,9 @@ def _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint,
     warning = watch.warning
     if warning:
         result.info.setdefault("warnings", []).append(warning)
+    for text in result.info.get("warnings", []):  # kept in info too (summary.json)
+        # (stacklevel 3: said at the line that called simulate)
+        warn(text, OverlapWarning if text == warning else TimeStepWarning, stacklevel=3)
     if scene.run.energy_tolerance is not None:
         result.status, result.message = ledger_verdict(result, scene.run.energy_tolerance,
                                                        "run.energy_tolerance")

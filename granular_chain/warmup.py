@@ -1,100 +1,29 @@
-"""The first run of a scene compiles its kernels; say so, and compile them up front.
+"""The first run of a scene compiles its kernels; compile them up front.
 
-numba compiles each kernel specialisation on its first use (10-60 s) and
-caches the machine code on disk (``__pycache__``, or ``NUMBA_CACHE_DIR``), so
-later runs load it in about a second. :func:`prepare_kernels` compiles (or
-loads) what a scene needs by stepping a copy of it for two steps, and, when
-the stepper's kernels are not yet cached, says so on stderr: a ``rich``
-spinner on a terminal, one plain line otherwise.
+numba compiles each kernel specialisation (one per feature set: contact law,
+friction, walls, ...) on its first use (10-60 s) and caches the machine code on
+disk (``__pycache__``, or ``NUMBA_CACHE_DIR``), so later runs load it in about a
+second. Whenever it compiles, :mod:`granular_chain._compile` issues a
+:class:`~granular_chain.notices.CompileNotice` (``compiling kernels, first run
+only (later runs reuse them): <feature set>``; the command line prints it as
+one line on stderr) and logs on the ``granular_chain`` logger.
+:func:`prepare_kernels` compiles (or loads) what a scene needs by stepping a
+copy of it for two steps, so that a run's progress bar then measures stepping
+only.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import sys
 import time
-from pathlib import Path
+import warnings
 
-__all__ = ["kernels_cached", "prepare_kernels", "compile_notice", "announce_compilation", "NOTICE"]
+from .notices import COMPILE_NOTICE, CompileNotice, OverlapWarning, TimeStepWarning
 
-NOTICE = "compiling kernels, first run only (later runs reuse them) ..."
-_KERNEL_FILES = {"verlet": "kernel.*_chunk-*.nbi", "event": "kernel.run_events-*.nbi"}
+__all__ = ["prepare_kernels", "NOTICE"]
 
-
-def kernels_cached(stepper: str) -> bool:
-    """Whether numba's cache holds an index for the stepper's main kernel.
-
-    An index is written with the first compiled specialisation and removed
-    when the package's sources change (see ``granular_chain._drop_stale_kernels``);
-    a scene with a new feature set still compiles once more without notice.
-
-    Parameters
-    ----------
-    stepper : {'verlet', 'event'}
-        The stepper whose kernels are meant.
-
-    Returns
-    -------
-    bool
-        True when the index exists.
-    """
-    pattern = _KERNEL_FILES.get(stepper, _KERNEL_FILES["verlet"])
-    custom = os.environ.get("NUMBA_CACHE_DIR")
-    root = Path(custom) if custom else Path(__file__).resolve().parent / "steppers"
-    return root.is_dir() and next(root.rglob(pattern), None) is not None
-
-
-@contextlib.contextmanager
-def compile_notice(stepper: str, stream=None, quiet: bool = False):
-    """Around the code that compiles: spinner or one line when the kernels are not cached.
-
-    Parameters
-    ----------
-    stepper : {'verlet', 'event'}
-        The stepper whose kernels are meant.
-    stream : file, optional
-        Where the notice goes (default ``sys.stderr``).
-    quiet : bool
-        No notice.
-
-    Yields
-    ------
-    None
-    """
-    stream = sys.stderr if stream is None else stream
-    if quiet or kernels_cached(stepper):
-        yield
-        return
-    if not stream.isatty():
-        print(f"granular-chain: {NOTICE}", file=stream, flush=True)
-        yield
-        return
-    from rich.console import Console
-
-    console = Console(file=stream)
-    start = time.perf_counter()
-    with console.status(NOTICE, spinner="dots"):
-        yield
-    console.print(f"kernels compiled in {time.perf_counter() - start:.1f} s; "
-                  f"later runs load them from the cache", highlight=False)
-
-
-def announce_compilation(stepper: str, stream=None) -> None:
-    """One line on stderr when ``stepper``'s kernels are not cached yet: for commands
-    (figures, boundaries) whose first minute would otherwise pass in silence.
-
-    Parameters
-    ----------
-    stepper : {'verlet', 'event'}
-        The stepper whose kernels are meant.
-    stream : file, optional
-        Where the notice goes (default ``sys.stderr``).
-    """
-    if not kernels_cached(stepper):
-        print(f"granular-chain: {NOTICE}", file=sys.stderr if stream is None else stream,
-              flush=True)
+#: The compile notice (each adds the feature set it compiles).
+NOTICE = COMPILE_NOTICE
 
 
 def _two_step_copy(scene):
@@ -118,7 +47,7 @@ def _two_step_copy(scene):
     return tiny
 
 
-def prepare_kernels(scene, *, quiet: bool = False, stream=None) -> float:
+def prepare_kernels(scene, *, quiet: bool = False) -> float:
     """Compile or load the kernels ``scene`` needs; returns the seconds it took.
 
     Called before a run so that the compilation is announced (and the progress
@@ -129,9 +58,8 @@ def prepare_kernels(scene, *, quiet: bool = False, stream=None) -> float:
     scene : Scene
         The validated scene about to run.
     quiet : bool
-        No notice.
-    stream : file, optional
-        Where the notice goes (default ``sys.stderr``).
+        No compile notice (the :class:`~granular_chain.notices.CompileNotice` is
+        ignored; the ``granular_chain`` logger still has it).
 
     Returns
     -------
@@ -141,6 +69,11 @@ def prepare_kernels(scene, *, quiet: bool = False, stream=None) -> float:
     from .simulate import simulate
 
     start = time.perf_counter()
-    with compile_notice(scene.run.stepper, stream=stream, quiet=quiet):
+    with warnings.catch_warnings():
+        # what the two-step copy could warn about is the copy's (the run says its own)
+        warnings.simplefilter("ignore", OverlapWarning)
+        warnings.simplefilter("ignore", TimeStepWarning)
+        if quiet:
+            warnings.simplefilter("ignore", CompileNotice)
         simulate(_two_step_copy(scene), progress=False)
     return time.perf_counter() - start

@@ -10,6 +10,7 @@ import numpy as np
 from hypothesis import settings
 
 from granular_chain._compile import LOCK_DIR_ENV
+from granular_chain.result import EnergyLedger, Result, Status
 
 # The workers (pytest-xdist) inherit this from the controller: a kernel one worker is
 # compiling, the other waits for and loads from numba's cache instead of compiling it
@@ -49,3 +50,16 @@ SLOW_FIRST = ("test_docs_site.py::test_site_builds_strictly",
 
 def pytest_collection_modifyitems(config, items):
     items.sort(key=lambda item: not any(s in item.nodeid for s in SLOW_FIRST))
+
+
+def hand_made_result(frames=40, count=6):
+    """A Result put together by hand (no kernel compiled): a bump moving right."""
+    t = np.linspace(0.0, 1.0, frames)
+    v = np.exp(-((np.arange(count)[None, :] - 5 * t[:, None]) ** 2))
+    x = np.cumsum(v, axis=0) * (t[1] - t[0]) + 2.0 * np.arange(count)
+    kin = 0.5 * np.sum(v * v, axis=1)
+    led = EnergyLedger(kinetic=kin, potential=kin[0] - kin, coulomb=0 * t, viscous=0 * t,
+                       initial=float(kin[0]))
+    return Result(t=t, x=x, v=v, f=0 * v, energy=led, status=Status.T_END,
+                  message="reached t_end", steps=frames, wall_time=0.01, stepper="verlet",
+                  dt=0.025, t_final=1.0, x_final=x[-1], v_final=v[-1])

@@ -335,25 +335,6 @@ def test_version_and_python_dash_m(capsys):
     assert done.returncode == 0 and done.stdout.strip() == f"granular-chain {gc.__version__}"
 
 
-def test_compile_notice_only_when_kernels_are_not_cached(tmp_path, monkeypatch):
-    import io
-
-    from granular_chain import warmup
-
-    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))  # an empty cache
-    assert not warmup.kernels_cached("verlet")
-    out = io.StringIO()  # not a terminal: one plain line, no spinner
-    with warmup.compile_notice("verlet", stream=out):
-        pass
-    assert out.getvalue() == f"granular-chain: {warmup.NOTICE}\n"
-    (tmp_path / "kernel.passes_chunk-246.py311.nbi").write_bytes(b"")
-    assert warmup.kernels_cached("verlet") and not warmup.kernels_cached("event")
-    out = io.StringIO()
-    with warmup.compile_notice("verlet", stream=out):
-        pass
-    assert out.getvalue() == ""
-
-
 def test_prepare_kernels_leaves_the_run_unchanged():
     from granular_chain.warmup import prepare_kernels
 
@@ -365,10 +346,3 @@ def test_prepare_kernels_leaves_the_run_unchanged():
     after = gc.simulate(scene, progress=False)
     assert np.array_equal(before.x, after.x) and before.t_final == after.t_final
 
-
-def test_missing_viz_extra_is_named_in_one_line():
-    from granular_chain.writers.plots import viz_missing
-
-    assert viz_missing("--plots", ("os",)) == ""
-    assert viz_missing("--vtk", ("no_such_module_here",)) == (
-        "--vtk: needs no_such_module_here; pip install 'granular_chain[viz]'")

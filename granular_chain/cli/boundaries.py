@@ -3,6 +3,8 @@ command is defined with them, in :mod:`granular_chain.two_granules.boundaries`).
 
 from __future__ import annotations
 
+from ..extras import check
+
 
 def add_parser(subparsers) -> None:
     """Register ``granular-chain boundaries`` on the CLI's subparsers.
@@ -17,8 +19,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain boundaries`` (announces a first compilation
-    once its arguments and --out are accepted).
+    """Entry point of ``granular-chain boundaries`` (refuses a plane without matplotlib
+    and --dask without dask.distributed, before anything is written).
 
     Parameters
     ----------
@@ -31,6 +33,9 @@ def run(args) -> int:
         Exit status: 0 ok, 2 bad input, 128 + N stopped by signal N.
     """
     from ..two_granules.boundaries import run_boundaries_command
-    from ..warmup import announce_compilation
-    # the collisions run on the event stepper; said once the arguments are accepted
-    return run_boundaries_command(args, announce=lambda: announce_compilation("event"))
+
+    if args.y_param is not None:  # a plane: its curves are drawn as a PNG
+        check("matplotlib", "granular-chain boundaries --y-param")
+    if args.dask:
+        check("distributed", "granular-chain boundaries --dask")
+    return run_boundaries_command(args)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..extras import check
 from ..writers.export import export_run
 
 
@@ -54,13 +55,12 @@ def run(args) -> int:
         print(f"granular-chain: {message}", file=sys.stderr)
         return 2
 
+    check("meshio", "granular-chain export")
+    import meshio
+
     run_dir = Path(args.run_dir)
     if not (run_dir / "trajectory.h5").is_file():
         return fail(f"{run_dir}: no trajectory.h5 to export (run with output.trajectory: true)")
-    try:
-        import meshio
-    except ImportError:
-        return fail("export needs meshio: pip install 'granular_chain[viz]'")
     fmt = args.fmt.lower()
     if fmt != "xdmf" and fmt not in meshio._helpers._writer_map:
         return fail(f"--format: {args.fmt!r} is not a format meshio writes (known: xdmf, "

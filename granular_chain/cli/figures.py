@@ -3,6 +3,8 @@ in :mod:`granular_chain.paper.figures`)."""
 
 from __future__ import annotations
 
+from ..extras import check
+
 
 def add_parser(subparsers) -> None:
     """Register ``granular-chain figures`` on the CLI's subparsers.
@@ -17,8 +19,8 @@ def add_parser(subparsers) -> None:
 
 
 def run(args) -> int:
-    """Entry point of ``granular-chain figures`` (announces a first compilation
-    once its arguments and --out are accepted).
+    """Entry point of ``granular-chain figures`` (refuses without matplotlib, before
+    anything is written).
 
     Parameters
     ----------
@@ -31,6 +33,6 @@ def run(args) -> int:
         Exit status: 0 ok, 2 bad input.
     """
     from ..paper.figures import run_figures_command
-    from ..warmup import announce_compilation
-    # the collisions run on the event stepper; said once the arguments are accepted
-    return run_figures_command(args, announce=lambda: announce_compilation("event"))
+
+    check("matplotlib", "granular-chain figures")
+    return run_figures_command(args)

@@ -7,10 +7,13 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 
+from ..extras import MissingExtraError
+from ..notices import CompileNotice, GranularChainWarning, PlotSkippedWarning
 from .exit_codes import EXIT_BAD_INPUT, EXIT_INTERRUPTED, fail
 
-__all__ = ["main", "build_parser", "COMMANDS"]
+__all__ = ["main", "build_parser", "show_warning", "COMMANDS"]
 
 #: The subcommands, in the order ``--help`` lists them (each a module of this package).
 COMMANDS = ("run", "validate", "schema", "plot", "sweep", "diagnose", "figures", "boundaries",
@@ -66,7 +69,13 @@ def main(argv=None) -> int:
         Exit status (see :mod:`granular_chain.cli.exit_codes`).
     """
     _drop_output_to_closed_pipes()
-    status = _main(argv)
+    with warnings.catch_warnings():  # (restores the hook and filters on return)
+        warnings.simplefilter("always", GranularChainWarning)
+        # a feature set's notice once (the run after prepare_kernels may compile more
+        # of the same feature set's kernels)
+        warnings.simplefilter("default", CompileNotice)
+        warnings.showwarning = show_warning
+        status = _main(argv)
     if argv is None and status > 128:  # the process's own command, stopped by a signal
         _exit_now(status)
     return status
@@ -97,6 +106,11 @@ def _main(argv) -> int:
             # an empty --out would fall back to a default place: say so instead
             return fail("--out: is empty; name a new folder (or file, for diagnose)")
         return _command(args.command).run(args)
+    except MissingExtraError as exc:  # an optional library the command needs is absent
+        said = str(exc)
+        print(said if said.startswith("granular-chain") else f"granular-chain: {said}",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:  # a signal outside a run's own handling (start-up, a
         # second Ctrl-C): one line, no traceback; what was being written is cleaned up
         print("granular-chain: interrupted", file=sys.stderr)
@@ -106,6 +120,30 @@ def _main(argv) -> int:
               "needs (a limit such as ulimit -v or a container's may be below the machine's "
               "memory); nothing written", file=sys.stderr)
         return EXIT_BAD_INPUT
+
+
+def show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` of the command: each warning one line on stderr,
+    ``granular-chain: warning: ...`` (a skipped plot or a compile notice, which are
+    not warnings about the results, without ``warning:``).
+
+    Parameters
+    ----------
+    message : Warning or str
+        The warning.
+    category : type
+        Its class.
+    filename, lineno, file, line
+        As ``warnings.showwarning``'s (where it was issued; unused: one line says it).
+    """
+    text = " ".join(str(message).split())
+    if issubclass(category, (CompileNotice, PlotSkippedWarning)):
+        said = f"granular-chain: {text}"
+    elif issubclass(category, GranularChainWarning):
+        said = f"granular-chain: warning: {text}"
+    else:  # a library's warning, named by its class
+        said = f"granular-chain: warning: {category.__name__}: {text}"
+    print(said, file=sys.stderr, flush=True)
 
 
 class _ClosedPipeSafe:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..extras import check
 from .exit_codes import EXIT_OK, fail
 
 
@@ -23,7 +24,8 @@ def add_parser(subparsers) -> None:
     plot.add_argument("--time", dest="frame_time", type=float, default=None,
                       help="time of the frame rendered in frame.png (default: mid-run)")
     plot.add_argument("--no-render", dest="render", action="store_false",
-                      help="skip frame.png (the pyvista off-screen rendering)")
+                      help="skip frame.png (the pyvista off-screen rendering; skipped "
+                      "with a note when pyvista is not installed)")
     plot.add_argument("--out", default=None,
                       help="a new folder for the PNGs, or one plot wrote (default "
                       "RUN_DIR/plots)")
@@ -40,8 +42,9 @@ def run(args) -> int:
     Returns
     -------
     int
-        Exit status: 0 written, 2 bad input.
+        Exit status: 0 written, 2 bad input (also matplotlib not installed).
     """
+    check("matplotlib", "granular-chain plot")  # (frame.png alone needs pyvista: skipped)
     run_dir = Path(args.run_dir)
     if not (run_dir / "trajectory.h5").is_file():
         return fail(f"{run_dir}: no trajectory.h5 to plot (run with --trajectory, the "

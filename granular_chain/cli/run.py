@@ -15,9 +15,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 from typing import Optional
 
+from ..extras import check
+from ..notices import CompileNotice
 from ..scene import SceneError, load_scene
 from .exit_codes import EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_FAILED, fail
 
@@ -171,16 +174,14 @@ def _incomplete_reason(result, stop, missed: list[str]) -> str:
     return "; ".join(parts)
 
 
-def _check_viz(scene) -> None:
-    """Refuse --plots / --vtk up front when the [viz] extra is not installed."""
-    from ..rundir import OutputError
-    from ..writers.plots import viz_missing
-
-    for flag, wanted, modules in (("--plots", scene.output.plots, ("matplotlib", "pyvista")),
-                                  ("--vtk", scene.output.vtk, ("pyvista",))):
-        missing = wanted and viz_missing(flag, modules)
-        if missing:
-            raise OutputError(missing)
+def _check_extras(scene) -> None:
+    """Refuse --plots / --vtk up front when the library they need is not installed
+    (:class:`~granular_chain.extras.MissingExtraError`); frame.png alone needs pyvista
+    and is skipped with a note without it."""
+    if scene.output.plots:
+        check("matplotlib", "granular-chain run --plots (output.plots)")
+    if scene.output.vtk:
+        check(("pyvista", "vtkmodules"), "granular-chain run --vtk (output.vtk)")
 
 
 def _output_folder(args, scene) -> tuple[Path, bool]:
@@ -209,6 +210,8 @@ def run(args) -> int:
     from ..rundir import OutputError
     from ..simulate import SimulationError
 
+    if args.quiet:  # (the command's warning filters are restored when it returns)
+        warnings.simplefilter("ignore", CompileNotice)
     try:
         scene, model, out, restart = _prepare_run(args)
     except (SceneError, OutputError) as exc:
@@ -241,8 +244,8 @@ def _prepare_run(args):
         out, is_default = _output_folder(args, scene)
         check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
         _note_killed_runs(out)
+    _check_extras(scene)
     model = preflight(scene)
-    _check_viz(scene)
     return scene, model, out, restart
 
 
@@ -349,8 +352,6 @@ def _report(args, result, out: Path, reason: str) -> None:
                   f"{out}/", file=sys.stderr)
         return
     print(f"{result.status.name.lower()}: {result.message}")
-    for w in result.info.get("warnings", []):
-        print(f"warning: {w}")
     print(f"t_final = {result.t_final:.12g}, steps = {result.steps}, "
           f"energy balance error = {result.energy.balance_error:.3g} (relative)")
     print(f"wrote {out}/")

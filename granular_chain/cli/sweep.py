@@ -8,6 +8,7 @@ import json
 import sys
 from pathlib import Path
 
+from ..extras import check
 from ..rundir import OutputError, claim_folder
 from ..sweep import PointOptions, SweepError, parse_grid, parse_list, plot_heatmap, run_sweep
 from ..sweep.heatmap import slug
@@ -73,6 +74,10 @@ def run(args) -> int:
     int
         The exit status.
     """
+    if not args.serial:  # decided before the scene is read or a folder made
+        check("distributed", "granular-chain sweep")
+    if args.quantity:
+        check("matplotlib", "granular-chain sweep --quantity")
     try:
         axes = [parse_grid(s) for s in args.grid] + [parse_list(s) for s in args.lists]
         if not axes:

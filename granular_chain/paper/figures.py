@@ -50,6 +50,7 @@ import numpy as np
 
 from .. import paper
 from ..codes import Status
+from ..extras import require
 from ..plotting import label_contours, signed
 from ..two_granules import OUTCOMES, Outcome, collide, collision_map
 
@@ -158,10 +159,8 @@ def hertz_maps(grid: int = 100, processes: int = 2, n: float = 2.5,
 # plotting helpers
 # ----------------------------------------------------------------------------
 def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+    require("matplotlib", "granular_chain paper figures").use("Agg")
+    return require("matplotlib.pyplot", "granular_chain paper figures")
 
 
 def _save(fig, out: Path, name: str) -> Path:

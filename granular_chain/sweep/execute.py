@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Optional, Sequence
 
 from .._compile import share_compiling
+from ..extras import require
 from .grid import Axis, SweepError, coord_text, grid_points
 from .point import QUANTITIES, PointOptions, value_columns
 from .resume import open_results, scene_text_hash
@@ -269,7 +270,8 @@ class _Workers:
         if executor == "dask":
             self.serial = False
             if client is None:
-                from distributed import Client, LocalCluster
+                distributed = require("distributed", "granular_chain sweep on dask")
+                Client, LocalCluster = distributed.Client, distributed.LocalCluster
                 if scheduler:
                     client = self.own_client = Client(scheduler)
                 else:
@@ -292,7 +294,7 @@ class _Workers:
         data, source, paths = task
         if self.serial:
             return _run_serial(batches, task, options, take)
-        from distributed import as_completed
+        as_completed = require("distributed", "granular_chain sweep on dask").as_completed
         client = self.client
         # hash=False: a content-hashed key would be shared with an earlier
         # sweep of the same scene on this client, whose release can then

@@ -8,6 +8,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..extras import require
 from ..plotting import label_contours, tex_name
 from .grid import SweepError
 from .resume import read_results
@@ -58,10 +59,9 @@ def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional
     SweepError
         A column named is not in the results.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import ListedColormap
+    require("matplotlib", "granular_chain sweep heat maps").use("Agg")
+    plt = require("matplotlib.pyplot", "granular_chain sweep heat maps")
+    ListedColormap = require("matplotlib.colors", "granular_chain sweep heat maps").ListedColormap
 
     cols = read_results(results) if not isinstance(results, dict) else results
     for c in (x, y, quantity):

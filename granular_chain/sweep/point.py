@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import copy
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
+from ..notices import OverlapWarning, TimeStepWarning
 from .grid import SweepError, coord_text
 
 __all__ = ["QUANTITIES", "PointOptions", "evaluate_point", "value_columns"]
@@ -115,7 +117,11 @@ def evaluate_point(scene_data: dict, source: str, paths: Sequence[str], coords: 
             out.pop("dt", None)
             out["every"] = 2_000_000_000
         scene = scene_from_dict(data, source=source)
-        result = simulate(scene, progress=False)
+        with warnings.catch_warnings():  # a warning about a point's run would repeat for
+            # thousands of points; the row is the point's report
+            warnings.simplefilter("ignore", OverlapWarning)
+            warnings.simplefilter("ignore", TimeStepWarning)
+            result = simulate(scene, progress=False)
     except (SceneError, SimulationError, SweepError) as exc:
         row.update(status="error", success=0, message=str(exc),
                    eval_time=time.perf_counter() - start)

@@ -17,6 +17,7 @@ from typing import Optional
 import numpy as np
 
 from .._compile import share_compiling
+from ..extras import require
 from ..plotting import tex_name
 from .boundaries import PARAMS, _Problem, _refine
 from .outcomes import OUTCOMES
@@ -345,7 +346,8 @@ def _run_tasks(fn, args, executor, client, workers):
         return [fn(*a) for a in args]
     if executor != "dask":
         raise ValueError(f"executor must be 'serial' or 'dask'; got {executor!r}")
-    from distributed import Client, LocalCluster
+    distributed = require("distributed", "granular_chain boundary curves on dask")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     own = cluster = None
     if client is None:
         share_compiling()
@@ -423,10 +425,9 @@ def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str
     str or Path
         ``path``.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import ListedColormap
+    require("matplotlib", "granular_chain boundary curves").use("Agg")
+    plt = require("matplotlib.pyplot", "granular_chain boundary curves")
+    ListedColormap = require("matplotlib.colors", "granular_chain boundary curves").ListedColormap
 
     from .maps import collision_map
     xn, yn = curves[0].plane

@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..extras import require
+
 __all__ = ["export_run", "add_export_parser", "run_export_command"]
 
 
@@ -63,7 +65,7 @@ def export_run(result, model, out: Path, fmt: str) -> list[Path]:
     list of Path
         The files written.
     """
-    import meshio
+    meshio = require("meshio", "granular_chain export")
 
     out.mkdir(parents=True, exist_ok=True)
     N = result.x.shape[1]

@@ -16,22 +16,26 @@
     closed contacts as tubes coloured by force. Needs an OpenGL that works without a
     display: the PyPI vtk wheels (>= 9.4) pick EGL when there is no X server (system
     libEGL + Mesa, e.g. Debian ``libegl1 libegl-mesa0 libgl1-mesa-dri``). If rendering
-    is impossible the other plots are still written and a message says why.
+    is impossible (no pyvista, no OpenGL) the other plots are still written and a
+    :class:`~granular_chain.notices.PlotSkippedWarning` says why.
 
-Matplotlib runs on the Agg backend (no display needed).
+The first three need matplotlib alone (the ``[plots]`` extra), on the Agg backend (no
+display needed); frame.png needs pyvista too (the ``[vtk]`` extra).
 """
 
 from __future__ import annotations
 
 import os
-import sys
 from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
 
+from ..extras import missing, require
+from ..notices import PlotSkippedWarning, warn
+
 __all__ = ["write_plots", "plot_spacetime", "plot_energy", "plot_velocities", "render_frame",
-           "default_granules", "PLOT_DIR"]
+           "default_granules", "frame_unavailable", "PLOT_DIR"]
 
 PLOT_DIR = "plots"
 # Cells of the space-time diagram at most, about its axes' size in pixels: a
@@ -44,28 +48,11 @@ _MAX_COLUMNS, _MAX_ROWS = 500, 600
 _FRAME_GRANULES = 200
 
 
-def viz_missing(what: str = "plots", modules=("matplotlib", "pyvista")) -> str:
-    """One line naming the extra that installs ``modules`` when some are missing, else ''.
-
-    For a command line's refusal before a run starts, e.g. ``viz_missing("--plots")``
-    or ``viz_missing("--vtk", ("pyvista",))``.
-    """
-    import importlib.util
-
-    absent = [m for m in modules if importlib.util.find_spec(m) is None]
-    if not absent:
-        return ""
-    return f"{what}: needs {' and '.join(absent)}; pip install 'granular_chain[viz]'"
-
-
 def _pyplot():
-    message = viz_missing()
-    if message:
-        raise ImportError(message)
-    import matplotlib
+    """matplotlib.pyplot on the Agg backend (no display needed); the [plots] extra."""
+    matplotlib = require("matplotlib", "granular_chain PNG plots")
     matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-    return plt
+    return require("matplotlib.pyplot", "granular_chain PNG plots")
 
 
 def _save(fig, path: Path) -> Path:
@@ -117,7 +104,7 @@ def plot_spacetime(result, path, scene=None) -> Path:
         ``path``.
     """
     plt = _pyplot()
-    from matplotlib.colors import TwoSlopeNorm
+    TwoSlopeNorm = require("matplotlib.colors", "granular_chain PNG plots").TwoSlopeNorm
 
     t, v = result.t, result.v
     F, N = v.shape
@@ -294,7 +281,7 @@ def render_frame(result, path, scene, time: Optional[float] = None,
         (:func:`write_plots` turns that into a message).
     """
     _prefer_egl()
-    import pyvista as pv
+    pv = require("pyvista", "granular_chain frame.png")
 
     from ..readback import run_model
     from .vtk import contact_overlap_force
@@ -376,11 +363,13 @@ def frame_window(v: np.ndarray, most: int = _FRAME_GRANULES) -> tuple[int, int]:
 
 def write_plots(result, folder, scene=None, *, granules: Optional[Sequence[int]] = None,
                 frame_time: Optional[float] = None, render: bool = True,
-                subdir: str = PLOT_DIR, log=None) -> list[Path]:
+                subdir: str = PLOT_DIR) -> list[Path]:
     """Write the PNGs into ``folder/plots/`` (``folder/subdir``); return the paths written.
 
-    The rendered frame needs the scene (radii, contact laws) and a working off-screen
-    OpenGL; when either is missing it is skipped with a one-line message on ``log``.
+    The three plots need matplotlib alone (the ``[plots]`` extra). The rendered frame
+    needs pyvista (the ``[vtk]`` extra), the scene (radii, contact laws) and a working
+    off-screen OpenGL; when any is missing it is skipped with a
+    :class:`~granular_chain.notices.PlotSkippedWarning` saying why.
 
     Parameters
     ----------
@@ -398,28 +387,50 @@ def write_plots(result, folder, scene=None, *, granules: Optional[Sequence[int]]
         Render ``frame.png`` with pyvista.
     subdir : str
         Subfolder of ``folder`` ('' writes into ``folder`` itself).
-    log : file, optional
-        Where skip messages go (default ``sys.stderr``).
 
     Returns
     -------
     list of Path
         The PNGs written.
+
+    Raises
+    ------
+    granular_chain.extras.MissingExtraError
+        matplotlib is not installed (nothing is written).
     """
-    log = sys.stderr if log is None else log
+    _pyplot()  # before the folder is made
     out = Path(folder) / subdir if subdir else Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     paths = [plot_spacetime(result, out / "spacetime.png", scene),
              plot_energy(result, out / "energy.png", scene),
              plot_velocities(result, out / "velocities.png", scene, granules)]
-    if render:
-        if scene is None:
-            print("granular-chain: frame.png skipped: no scene stored with the run", file=log)
-        else:
-            try:
-                paths.append(render_frame(result, out / "frame.png", scene, frame_time))
-            except Exception as exc:  # noqa: BLE001 - any VTK/OpenGL failure means "cannot render"
-                print(f"granular-chain: frame.png skipped: off-screen rendering failed "
-                      f"({exc.__class__.__name__}: {exc}); the other plots are written",
-                      file=log)
+    skipped = render and frame_unavailable(scene)
+    if skipped:
+        warn(skipped, PlotSkippedWarning)
+    elif render:
+        try:
+            paths.append(render_frame(result, out / "frame.png", scene, frame_time))
+        except Exception as exc:  # noqa: BLE001 - any VTK/OpenGL failure means "cannot render"
+            warn(f"frame.png skipped: off-screen rendering failed "
+                 f"({exc.__class__.__name__}: {exc}); the other plots are written",
+                 PlotSkippedWarning)
     return paths
+
+
+def frame_unavailable(scene) -> str:
+    """Why frame.png cannot be rendered (no scene, no pyvista), in one line; '' if it can.
+
+    Parameters
+    ----------
+    scene : Scene or None
+        The run's scene.
+
+    Returns
+    -------
+    str
+        The reason, or ''.
+    """
+    if scene is None:
+        return "frame.png skipped: no scene stored with the run"
+    _prefer_egl()  # before VTK is first imported
+    return missing(("pyvista", "vtkmodules"), "frame.png skipped")

@@ -58,6 +58,7 @@ import numba
 import numpy as np
 
 from ..codes import EVENT_KINDS
+from ..extras import require
 from ..result import TERMS_ADDED, ledger_balance
 
 __all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
@@ -708,7 +709,7 @@ def to_xarray(result, scene=None):
         Frames (time, granule), ledger (time), per-granule constants and final
         state (granule), events (event); scene units.
     """
-    import xarray as xr
+    xr = require("xarray", "granular_chain to_xarray")
 
     units = scene.units if scene is not None else "scaled"
     coords = {"time": ("time", result.t, _attrs(units, "time", _TIME)),

@@ -60,6 +60,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from ..extras import require
 from ..laws.contact import LAW_POWER, contact_force
 from ..laws.damping import DAMPING_NONE, damped_contact_force
 from ..laws.wall_motion import wall_displacement, wall_speed
@@ -315,8 +316,10 @@ class VTKSeriesWriter:
     def __init__(self, folder, radius, mass, k, n, eta_static, *, compression="zlib",
                  walls=(None, None), law: int = LAW_POWER,
                  dissipation: Optional[Dissipation] = None):
-        import pyvista as pv  # heavy: imported only when a VTK series is asked for
-        from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+        # heavy: imported only when a VTK series is asked for
+        pv = require("pyvista", "granular_chain VTK series")
+        vtkXMLPolyDataWriter = require("vtkmodules.vtkIOXML",
+                                       "granular_chain VTK series").vtkXMLPolyDataWriter
 
         self.folder = Path(folder)
         (self.folder / FRAME_DIR).mkdir(parents=True, exist_ok=True)

@@ -20,7 +20,7 @@ import numba
 import numpy as np
 from numba import literally
 
-from ..._compile import specialised
+from ..._compile import compile_scope, specialised
 from ...codes import EventKind, Pause, Status
 from ...interrupts import StopRequest, stop_signals
 from ...model import LAW_LINEAR, Model
@@ -212,7 +212,8 @@ class EventBatch:
         self._template_settings[0]["budget"] = POINT_BUDGET
         N = model.count
         probe = self._call_args(FrictionPoints(*(np.zeros((1, N)),) * 3), _results(1, N), 0, 1)
-        self._entry = specialised(_run_points, probe, (0, 1, 2))
+        with compile_scope(f"event stepper, many collisions: {model.features.in_words()}"):
+            self._entry = specialised(_run_points, probe, (0, 1, 2))
 
     def _call_args(self, points, out, start, end):
         pk = self.packed
