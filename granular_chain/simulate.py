@@ -100,7 +100,7 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         A state given to ``checkpoint`` by a run of the same scene: this run goes
         on from it, bit for bit as if it had never stopped; a Verlet state may come
         from a run of the same scene with an earlier ``run.t_end`` whose step plan
-        is this one's (:func:`extension_problem`).
+        is this one's (:func:`granular_chain.restart.extension_problem`).
     end_checkpoint : bool
         Verlet: also give ``checkpoint`` the state at the last frame of the cadence
         before the last whole step, which a run to a later t_end passes through

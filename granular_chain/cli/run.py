@@ -253,7 +253,7 @@ def _prepare_run(args):
     _check_viz(scene)
     if restart is not None:
         restart.decide(model)
-        if restart.fresh and not args.quiet:
+        if restart.fresh:  # said even with --quiet: the run takes as long as a new one
             print(f"granular-chain: note: the run is computed again from t = 0 to t_end = "
                   f"{scene.run.t_end:g}: {restart.fresh}", file=sys.stderr)
     return scene, model, out, restart
