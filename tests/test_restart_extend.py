@@ -41,6 +41,11 @@ def assert_same_folder(a: Path, b: Path) -> None:
         assert set(ha.attrs) == set(hb.attrs)
         for key in set(ha.attrs) - set(WALL_TIMES):
             assert np.array_equal(ha.attrs[key], hb.attrs[key]), key
+    if (a / "vtk").exists() or (b / "vtk").exists():  # the VTK series, byte for byte
+        frames = sorted(p.name for p in (a / "vtk").iterdir())
+        assert frames == sorted(p.name for p in (b / "vtk").iterdir())
+        for name in ["../run.pvd", *frames]:
+            assert (a / "vtk" / name).read_bytes() == (b / "vtk" / name).read_bytes(), name
     sa, sb = (json.loads((p / "summary.json").read_text()) for p in (a, b))
     for key in WALL_TIMES:
         sa.pop(key, None), sb.pop(key, None)
@@ -63,7 +68,7 @@ def straight_and_extended(tmp_path, scene, t1, t2, *flags):
 
 @pytest.mark.parametrize("scene, t1, t2, flags", [
     # the paper's collision: t_end 1 is before separation, the extension separates
-    ("two_granules.yaml", 1.0, 20.0, ["--set", "output.thermo=1000", "--csv"]),
+    ("two_granules.yaml", 1.0, 20.0, ["--set", "output.thermo=1000", "--csv", "--vtk"]),
     # Coulomb friction (merged kicks) and the event log; 10.0025 needs a shortened step
     ("chain_kinetic.yaml", 10.0025, 20.0,
      ["--set", "output.thermo=500", "--set", "output.events=true", "--csv"]),
@@ -76,7 +81,8 @@ def test_verlet_run_extended_equals_the_run_straight_to_the_later_end(
     assert "computed again" not in capsys.readouterr().err  # from the checkpoint
     assert_same_folder(a, b)
     marker = read_marker(b)
-    assert marker["overrides"][-1] == f"run.t_end={t2}" and marker["writers"] == {"csv": True}
+    assert marker["overrides"][-1] == f"run.t_end={t2}"
+    assert marker["writers"] == {f[2:]: True for f in flags if f in ("--csv", "--vtk")}
 
 
 def test_extension_goes_on_from_the_end_checkpoint(tmp_path, capsys):
