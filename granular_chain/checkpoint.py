@@ -4,7 +4,9 @@ A checkpoint is ``checkpoint.npz`` in the run folder: the driver's state (numpy 
 numbers, kept exactly by ``numpy.savez``) and the scene it belongs to (JSON), written to a
 temporary name and renamed, so the file on disk is always a whole checkpoint. It is written
 every ``output.checkpoint_every`` steps, once the writers have the frames so far on disk,
-and when a run is interrupted; a run that completes removes it.
+and when a run is interrupted. A run that completes removes it, except a Verlet run that
+reached t_end, which keeps the one taken at its last frame of the cadence before its last
+whole step: a later ``run.t_end`` extends the run from it (:mod:`granular_chain.restart`).
 """
 
 from __future__ import annotations

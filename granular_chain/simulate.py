@@ -75,7 +75,8 @@ def preflight(scene: Scene) -> Model:
 
 def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
              writers: Sequence = (), keep_frames: bool = True, thermo=None,
-             checkpoint=None, resume: Optional[dict] = None) -> Result:
+             checkpoint=None, resume: Optional[dict] = None,
+             end_checkpoint: bool = False) -> Result:
     """Run a scene and return its :class:`Result`.
 
     Parameters
@@ -103,7 +104,13 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         is interrupted (Verlet; :mod:`granular_chain.checkpoint` saves it).
     resume : dict, optional
         A state given to ``checkpoint`` by a run of the same scene: this run goes
-        on from it, bit for bit as if it had never stopped (Verlet).
+        on from it, bit for bit as if it had never stopped; a Verlet state may come
+        from a run of the same scene with an earlier ``run.t_end`` whose step plan
+        is this one's (:func:`granular_chain.restart.extension_problem`).
+    end_checkpoint : bool
+        Verlet: also give ``checkpoint`` the state at the last frame of the cadence
+        before the last whole step, which a run to a later t_end passes through
+        (the event stepper ignores it).
 
     Returns
     -------
@@ -189,7 +196,7 @@ def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, che
                                      checkpoint_every=every or 0, progress=progress)
         else:
             run = VerletRun(scene, model, progress, log=log, thermo=thermo, checkpoint=checkpoint,
-                            checkpoint_every=every)
+                            checkpoint_every=every, end_checkpoint=end_checkpoint)
             result = run.run(resume=resume)
     finally:
         log.finish()  # (the writers' thread is done before anyone closes their files)

@@ -253,11 +253,12 @@ def test_run_that_asks_for_nothing_writes_only_marker_and_summary(tmp_path):
     out = tmp_path / "none"
     assert main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=5",
                  "--set", "output.trajectory=false"]) == 0
-    assert _files(out) == ["run.json", "summary.json", "thermo.csv"]
+    # (a Verlet run that reached t_end keeps its checkpoint: a later t_end extends it)
+    assert _files(out) == ["checkpoint.npz", "run.json", "summary.json", "thermo.csv"]
     out2 = tmp_path / "flag"
     assert main(["run", str(CHAIN), "--out", str(out2), "--quiet", "--set", "run.t_end=5",
                  "--no-trajectory"]) == 0
-    assert _files(out2) == ["run.json", "summary.json", "thermo.csv"]
+    assert _files(out2) == ["checkpoint.npz", "run.json", "summary.json", "thermo.csv"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["flag", "none"]
 
 

@@ -1,5 +1,6 @@
 """``granular-chain run SCENE``: run a scene with its writers attached and publish the
-run folder.
+run folder; ``granular-chain run [SCENE] --restart RUN_DIR``: continue a run, or extend a
+finished one to a later ``run.t_end`` (:mod:`granular_chain.restart`).
 
 What ``run`` writes is asked for by the scene's ``output`` fields or, for one run,
 by flags that override them (``--vtk``, ``--trajectory/--no-trajectory``, ``--csv``,
@@ -34,7 +35,8 @@ def add_parser(subparsers) -> None:
         The CLI's subparsers (``parser.add_subparsers()``).
     """
     run = subparsers.add_parser("run", help="run a scene and write its outputs")
-    run.add_argument("scene", help="scene YAML file")
+    run.add_argument("scene", nargs="?", default=None,
+                     help="scene YAML file (optional with --restart: the run's own scene)")
     run.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="dotted.path=value", help="override a scene field (repeatable)")
     run.add_argument("--out", default=None,
@@ -42,7 +44,8 @@ def add_parser(subparsers) -> None:
                      "(default outputs/<scene name>, with a suffix for --set overrides)")
     run.add_argument("--restart", default=None, metavar="RUN_DIR",
                      help="continue an interrupted run from its checkpoint (bit for bit as "
-                     "if it had never stopped); the scene must be the run's own")
+                     "if it had never stopped), or extend a finished one to a later "
+                     "run.t_end (--set run.t_end=T), in place; the scene is the run's own")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the earlier run in --out (atomically; only a folder the "
                      "engine wrote, holding nothing else)")
@@ -60,11 +63,16 @@ def add_parser(subparsers) -> None:
                          help="PNG plots in plots/ (output.plots)")
 
 
+def _writer_flags(args) -> dict:
+    """The writer flags given (``--csv``, ``--no-trajectory``...): output field -> bool."""
+    from ..restart import WRITER_FLAGS
+    return {name: getattr(args, name) for name in WRITER_FLAGS
+            if getattr(args, name, None) is not None}
+
+
 def _apply_writer_flags(scene, args) -> None:
-    for name in ("vtk", "trajectory", "csv", "plots"):
-        flag = getattr(args, name, None)
-        if flag is not None:
-            setattr(scene.output, name, flag)
+    for name, flag in _writer_flags(args).items():
+        setattr(scene.output, name, flag)
 
 
 class _Attached:
@@ -210,6 +218,9 @@ def run(args) -> int:
     from ..rundir import OutputError
     from ..simulate import SimulationError
 
+    if args.scene is None and not args.restart:
+        return fail("run: give a SCENE file, or --restart RUN_DIR to continue a run "
+                    "(see granular-chain run --help)")
     if args.quiet:  # (the command's warning filters are restored when it returns)
         warnings.simplefilter("ignore", CompileNotice)
     try:
@@ -217,7 +228,7 @@ def run(args) -> int:
     except (SceneError, OutputError) as exc:
         return fail(str(exc))
     except SimulationError as exc:
-        return fail(f"{args.scene}: {exc}")
+        return fail(f"{args.scene or args.restart}: {exc}")
     from ..warmup import prepare_kernels
     try:
         prepare_kernels(scene, quiet=args.quiet)
@@ -233,19 +244,24 @@ def _prepare_run(args):
     from ..rundir import check_out
     from ..simulate import preflight
 
-    scene = load_scene(args.scene, args.overrides)
-    _apply_writer_flags(scene, args)
     restart = None
     if args.restart:
         from ..restart import plan_restart
-        restart = plan_restart(args, scene)
-        out = restart.out
+        restart = plan_restart(args)
+        scene, out = restart.scene, restart.out
     else:
+        scene = load_scene(args.scene, args.overrides)
+        _apply_writer_flags(scene, args)
         out, is_default = _output_folder(args, scene)
         check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
         _note_killed_runs(out)
     _check_extras(scene)
     model = preflight(scene)
+    if restart is not None:
+        restart.decide(model)
+        if restart.fresh:  # said even with --quiet: the run takes as long as a new one
+            print(f"granular-chain: note: the run is computed again from t = 0 to t_end = "
+                  f"{scene.run.t_end:g}: {restart.fresh}", file=sys.stderr)
     return scene, model, out, restart
 
 
@@ -281,9 +297,14 @@ def _execute(args, scene, model, out: Path, restart) -> int:
     from ..rundir import OutputError, RunFolder
     from ..simulate import simulate
 
-    about = {"scene_name": scene.name, "scene_source": str(Path(args.scene).resolve()),
-             "overrides": list(args.overrides), "stepper": scene.run.stepper,
+    about = {"scene_name": scene.name, "stepper": scene.run.stepper,
              "destination": str(out.resolve())}
+    if restart is None:
+        about.update(scene_source=str(Path(args.scene).resolve()),
+                     overrides=list(args.overrides), writers=_writer_flags(args))
+    else:
+        about.update(scene_source=restart.scene_source, overrides=restart.overrides,
+                     writers=restart.writers)
     with stop_signals() as stop:
         try:
             with RunFolder(out, about) as folder:
@@ -294,12 +315,13 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                         scene, progress=_bar_wanted(args), writers=attached.writers,
                         keep_frames=attached.keep_frames, thermo=attached.thermo,
                         checkpoint=attached.checkpoint(folder.tmp, scene, folder.note_files),
-                        resume=resume)
+                        resume=resume, end_checkpoint=True)
                 except BaseException:
                     attached.abandon()
                     raise
                 attached.thermo.close()
-                if (result.status == Status.INTERRUPTED and out.exists() and restart is None
+                if (result.status == Status.INTERRUPTED and out.exists()
+                        and (restart is None or restart.fresh)
                         and not scene.run.stages):  # (a staged run is not continued)
                     # the earlier run stays; this one is kept aside, to be continued
                     _write_outputs(result, folder.tmp, scene, stop)
@@ -310,7 +332,7 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                     return stop.exit_code
                 missed = _write_outputs(result, folder.tmp, scene, stop)
                 reason = _incomplete_reason(result, stop, missed)
-                if not reason:
+                if not reason and not _extendable(result):
                     (folder.tmp / CHECKPOINT).unlink(missing_ok=True)
                 folder.publish(complete=not reason, reason=reason)
                 if restart is not None:
@@ -332,6 +354,13 @@ def _bar_wanted(args) -> bool:
     """A progress bar on standard error: on a terminal, unless --quiet (piped or
     redirected output gets the thermo lines and the report only)."""
     return not args.quiet and sys.stderr.isatty()
+
+
+def _extendable(result) -> bool:
+    """A finished run keeps its last checkpoint when a later run.t_end can go on from
+    it: a Verlet run that reached t_end (:mod:`granular_chain.restart`)."""
+    from ..result import Status
+    return result.stepper == "verlet" and result.status == Status.T_END
 
 
 def _os_problem(exc: OSError) -> str:

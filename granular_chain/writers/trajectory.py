@@ -343,6 +343,8 @@ class TrajectoryWriter:
             self._stage = _Block(self._h5, ("stage",)) if "stage" in self._h5 else None
             if resume_frames is not None:
                 self._reopen(int(resume_frames))
+                # (a run extended to a later t_end: the file describes the new scene)
+                self._h5.attrs.update(root_attrs(scene))
         except BaseException:
             self._h5.close()
             raise

@@ -370,6 +370,20 @@ class VTKSeriesWriter:
             setter()
         self._entries: list[tuple[float, str]] = []
 
+    def prime(self) -> None:
+        """Write the mesh once to a scratch file, removed again: VTK's XML writer lays
+        out the first file it writes differently from the later ones (the arrays no
+        frame changes, radius and mass, close with ``/>`` there and with
+        ``</DataArray>`` after), so a series continued by a new writer (a restarted
+        run) goes on in the layout of the run never stopped, byte for byte."""
+        scratch = self.folder / FRAME_DIR / ".prime.vtp"
+        self._writer.SetFileName(str(scratch))
+        try:
+            if self._writer.Write() != 1:
+                raise OSError(f"VTK could not write {scratch}")
+        finally:
+            scratch.unlink(missing_ok=True)
+
     @property
     def mesh(self):
         """The frame mesh as last written (a pyvista.PolyData sharing the buffers)."""
@@ -530,6 +544,7 @@ class VTKFrames:
             raise ValueError(f"{folder / PVD_NAME} lists {len(entries)} frames, fewer than "
                              f"the checkpoint's {frames}")
         self.series._entries = entries[:frames]
+        self.series.prime()
         for k, path in enumerate(sorted((folder / FRAME_DIR).glob("frame_*.vtp"))):
             if k >= frames:
                 path.unlink()

@@ -321,11 +321,15 @@ class VerletRun:
         is interrupted; :meth:`run` with that state continues the run bit for bit.
     checkpoint_every : int, optional
         Steps between checkpoints (None: only at an interruption).
+    end_checkpoint : bool
+        Also checkpoint at the last frame of the cadence before the run's last whole
+        step (:attr:`end_ck`): a run to a later t_end passes through that state, so
+        the finished run can be extended from it (``granular-chain run --restart``).
     """
 
     def __init__(self, scene, model: Model, progress: Optional[bool] = None,
                  log: Optional[FrameLog] = None, thermo=None, checkpoint=None,
-                 checkpoint_every: Optional[int] = None):
+                 checkpoint_every: Optional[int] = None, end_checkpoint: bool = False):
         settings = scene.run
         self.model, self.thermo = model, thermo
         self.on_checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
@@ -339,6 +343,12 @@ class VerletRun:
         self.limited = plan.steps > settings.max_steps
         self.n_total = min(plan.steps, settings.max_steps)
         self.last_dt = 0.0 if self.limited else plan.last_dt
+        # The end checkpoint: the last frame of the cadence before the last whole step.
+        # A run to a later t_end takes the same steps and frames up to there; the last
+        # whole step itself may not be (its time is t_end, and the shortened step and
+        # the final frame follow it).
+        self.end_ck = max(0, (plan.steps - 1) // plan.every * plan.every) \
+            if end_checkpoint and checkpoint is not None else -1
         stops = settings.stop_conditions
         self.stop_mode = (STOP_ON_SEPARATION if "separation" in stops else 0) | (
             STOP_ON_REST if "rest" in stops else 0)
@@ -497,8 +507,11 @@ class VerletRun:
             self.log.record(first)
             if self.thermo is not None:
                 self.thermo.write_frame(first)
-            self.next_frame = min(self.plan.every, self._last_step())
+            self._frame_after(0)
             self.next_thermo = self.thermo.every if self.thermo is not None else math.inf
+            self._init_checkpoints()
+            if self.end_ck == 0:
+                self._checkpoint()
         else:
             # the frames before the checkpoint are in the writers' files, not here: the
             # Result keeps the first and the latest, and the ledger error over them all
@@ -526,14 +539,23 @@ class VerletRun:
         self.log.close(result)
         return result
 
+    def _init_checkpoints(self) -> None:
+        """The checkpoint cadence of a run that starts (a resumed one has its own)."""
+        ck_every = self.checkpoint_every or 0
+        self.next_ck = self.steps + ck_every if ck_every else math.inf
+
+    def _frame_after(self, steps: int) -> None:
+        """The next frame of the cadence after a frame at ``steps``: ``frame_due``,
+        and ``next_frame`` that one or the run's last step, whichever is first."""
+        self.frame_due = steps + self.plan.every
+        self.next_frame = min(self.frame_due, self._last_step())
+
     def _loop(self, stop):
         thermo_every = self.thermo.every if self.thermo is not None else 0
         chunk = _Chunk(self.model.count)
         ck_every = self.checkpoint_every or 0
         if not ck_every:
             self.next_ck = math.inf
-        elif getattr(self, "next_ck", None) is None:
-            self.next_ck = self.steps + ck_every
         # The kernel reads rest off a kick only after a call's first step: a Coulomb
         # run that stops at rest is tested here at the end of every call, wherever
         # calls end, so its stop step does not depend on them.
@@ -555,13 +577,14 @@ class VerletRun:
             at_frame = self.steps >= self.next_frame or code != chunk_done or stop.requested
             at_thermo = self.steps >= self.next_thermo
             at_ck = self.steps >= self.next_ck
+            at_end_ck = self.steps == self.end_ck
             if deferring and at_frame and code == chunk_done and not (
-                    at_thermo or at_ck or stop.requested or self._finished()):
+                    at_thermo or at_ck or at_end_ck or stop.requested or self._finished()):
                 if not rest_watch:
                     self._synchronise(code)
                 self._defer()
                 continue
-            if deferring and (at_frame or at_thermo or at_ck):
+            if deferring and (at_frame or at_thermo or at_ck or at_end_ck):
                 # what follows reads the frames handed on: they are all made first
                 ended = self._drained()
                 if ended is not None:
@@ -583,6 +606,7 @@ class VerletRun:
                         return done
             if at_ck:  # (the cadence moves on first: the state saved holds the next one)
                 self.next_ck = self.steps + ck_every
+            if at_ck or at_end_ck:
                 self._checkpoint()
         ended = self._drained() if deferring else None
         if ended is not None:
@@ -609,7 +633,7 @@ class VerletRun:
             self.log.record(frame)
             return self._interrupted(stop)
         self.log.record(frame)
-        self.next_frame = min(self.steps + self.plan.every, self._last_step())
+        self._frame_after(self.steps)
         if finished and ended is None and self.thermo is not None \
                 and self.thermo.last_step != self.steps:
             self.thermo.write_frame(frame)  # the thermo log ends at the run's end
@@ -649,6 +673,7 @@ class VerletRun:
             for name in FORCED_STATE_ARRAYS:
                 state[f"forced_{name}"] = getattr(self.fstate, name).copy()
         state["opening"] = np.int64(self.opening)
+        state["frame_due"] = np.int64(self.frame_due)
         state["frames"] = np.int64(self.log.count)
         state["max_error"] = np.float64(self.log.max_balance_error)
         state["thermo_lines"] = np.int64(getattr(self.thermo, "lines", 0))
@@ -671,11 +696,17 @@ class VerletRun:
             for name in FORCED_STATE_ARRAYS:
                 getattr(self.fstate, name)[:] = state[f"forced_{name}"]
         self.opening = int(state["opening"])
-        for name in self._STATE_SCALARS:
+        # What the plan decides comes from this run's plan, not the state's: a run
+        # continued to a later t_end has more steps (a checkpoint never falls after
+        # the last whole step, so short_taken is False and dt_now the plan's step).
+        for name in set(self._STATE_SCALARS) - {"n_total", "short_taken", "dt_now"}:
             value = state[name]
             setattr(self, name, bool(value) if name == "short_taken" else (
                 float(value) if name in ("t_now", "dt_now", "next_thermo", "next_ck", "e0")
                 else int(value)))
+        # the frame cadence goes on from the checkpoint's, up to this run's last step
+        self._frame_after(int(state["frame_due"]) - self.plan.every if "frame_due" in state
+                          else self.next_frame - self.plan.every)
         first = Frame(**{name: _stored(state, f"first_{name}") for name in FrameLog._FIELDS
                          if f"first_{name}" in state}, initial=self.e0)
         self.log.resume(int(state["frames"]), float(state["max_error"]), first)
@@ -848,7 +879,7 @@ class VerletRun:
         self._stash(self.u, self.vs, self.f, FrameArrays(x, v, f, x))
         self.log.defer(partial(self._settle, _Mark(self.steps, self.t_now, self.ledger.copy(),
                                                    self.counts.copy(), self.sync)))
-        self.next_frame = min(self.steps + self.plan.every, self._last_step())
+        self._frame_after(self.steps)
 
     def _settle(self, mark: "_Mark", x, v, f) -> Frame:
         """(On the writers' thread.) The frame of a state :meth:`_defer` copied into
