@@ -16,11 +16,13 @@ A second signal while the first is being honoured raises
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import threading
 from dataclasses import dataclass
 
-__all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals"]
+__all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals",
+           "raise_on_signals", "held_signals"]
 
 #: The signals that stop a run cleanly (SIGHUP: the terminal was closed; absent on
 #: Windows).
@@ -112,3 +114,71 @@ def stop_signals():
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextlib.contextmanager
+def raise_on_signals():
+    """While the block runs, SIGINT, SIGTERM and SIGHUP raise :class:`Stopped`.
+
+    The command line's frame around a whole command: a signal that arrives before
+    a run's loop takes over (:func:`stop_signals`, which replaces these handlers
+    for its block) or after it (scene loading, kernel compilation, claiming and
+    writing output) unwinds the command at once through its cleanup, and the
+    command exits with 128 + the signal number instead of the signal's default
+    (SIGTERM, SIGHUP: the process dies on the spot, its files as they were).
+    Outside the main thread nothing is changed; in a process forked meanwhile (a
+    pool's worker) the signals keep their default action.
+
+    Yields
+    ------
+    None
+    """
+    if not _main_thread():
+        yield
+        return
+
+    pid = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() != pid:  # a forked worker (a pool's): the signal's default action
+            if signum == signal.SIGINT:
+                raise KeyboardInterrupt
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+            return
+        raise Stopped(signum)
+
+    previous = {s: signal.signal(s, handler) for s in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+
+
+@contextlib.contextmanager
+def held_signals():
+    """Hold SIGINT, SIGTERM and SIGHUP back while the block runs; one that arrives
+    meanwhile is delivered when it ends.
+
+    For the few file-system steps that must not be cut in two (a folder created
+    and marked, a temporary folder removed, a run renamed into place): a signal
+    then acts before or after them, never between. Blocks last milliseconds.
+    Outside the main thread, or without ``signal.pthread_sigmask``, nothing is held.
+
+    Yields
+    ------
+    None
+    """
+    if not (_main_thread() and hasattr(signal, "pthread_sigmask")):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
