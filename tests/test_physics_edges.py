@@ -215,8 +215,8 @@ def test_opening_below_roundoff_is_not_resolved():
 
 # --- the event stepper's valid range of n -------------------------------------
 
-def test_event_stepper_refuses_exponents_above_its_range(tmp_path, capsys):
-    n = 20.0
+@pytest.mark.parametrize("n", [20.0, 80.0])
+def test_event_stepper_refuses_exponents_above_its_range(tmp_path, capsys, n):
     with pytest.raises(gc.SimulationError, match=r"contacts.exponent: .* n <= "):
         collide(n, stepper="event")
     from granular_chain.steppers.events import MAX_EXPONENT
