@@ -234,21 +234,22 @@ class RunFolder:
         # the folders this run creates, deepest first: removed again if it fails
         self._made = [p for p in [parent, *parent.parents] if not p.exists()]
         self._replaces = read_marker(self.out) is not None  # an earlier run, accepted
-        # (a signal acts before the temporary folder exists marked, or after)
-        with held_signals():
-            try:
-                parent.mkdir(parents=True, exist_ok=True)
-                _remove_stale_partials(parent, self.out.name)
-                self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-",
-                                                 dir=parent))
-                self._write_marker(self.tmp, complete=False, reason="running", files=[])
-            except OSError as exc:
-                self.__exit__()
-                raise OutputError(f"--out {self.out}: cannot be written "
-                                  f"({exc.strerror or exc})") from None
-            except BaseException:
-                self.__exit__()
-                raise
+        # A signal acts before the temporary folder exists marked, or after; one that
+        # acts as this ends (or an error) removes it again.
+        try:
+            with held_signals():
+                try:
+                    parent.mkdir(parents=True, exist_ok=True)
+                    _remove_stale_partials(parent, self.out.name)
+                    self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-",
+                                                     dir=parent))
+                    self._write_marker(self.tmp, complete=False, reason="running", files=[])
+                except OSError as exc:
+                    raise OutputError(f"--out {self.out}: cannot be written "
+                                      f"({exc.strerror or exc})") from None
+        except BaseException:
+            self.__exit__()
+            raise
         return self
 
     def __exit__(self, *exc) -> None:
@@ -593,24 +594,27 @@ class Claim:
         self._stage: Optional[Path] = None
 
     def __enter__(self) -> "Claim":
-        # (a signal acts before the folder is made and marked, or after: never between)
-        with held_signals():
-            self._made = [p for p in [self.folder, *self.folder.parents] if not p.exists()]
-            try:
-                self.folder.mkdir(parents=True, exist_ok=True)
-                if self._new_marker:
-                    data = {"engine": ENGINE, "version": _version(), "command": self.command,
-                            "complete": False, "reason": "writing", "pid": os.getpid(),
-                            "files": []}
-                    write_text_atomic(self.folder / MARKER, json.dumps(data, indent=2) + "\n")
-                self._list(keep=lambda p: True)
-            except OSError as exc:
-                self._undo()
-                raise OutputError(f"{self.folder}: cannot be written "
-                                  f"({exc.strerror or exc})") from None
-            except BaseException:
-                self._undo()
-                raise
+        # A signal acts before the folder is made and marked, or after; one that acts
+        # as this ends (or an error) undoes it, as the end of the claim would.
+        try:
+            with held_signals():
+                self._made = [p for p in [self.folder, *self.folder.parents]
+                              if not p.exists()]
+                try:
+                    self.folder.mkdir(parents=True, exist_ok=True)
+                    if self._new_marker:
+                        data = {"engine": ENGINE, "version": _version(),
+                                "command": self.command, "complete": False,
+                                "reason": "writing", "pid": os.getpid(), "files": []}
+                        write_text_atomic(self.folder / MARKER,
+                                          json.dumps(data, indent=2) + "\n")
+                    self._list(keep=lambda p: True)
+                except OSError as exc:
+                    raise OutputError(f"{self.folder}: cannot be written "
+                                      f"({exc.strerror or exc})") from None
+        except BaseException as exc:
+            self.__exit__(type(exc), exc, None)
+            raise
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
@@ -649,7 +653,8 @@ class Claim:
     def _list(self, keep, complete: bool = False, reason: str = "") -> None:
         """List the claimed names that pass ``keep`` in the owner's marker (the
         others are dropped), as written by this command; ``complete``: mark the
-        claim's own new folder complete, or incomplete with ``reason`` if one is given."""
+        claim's own folder (new, or one the command marked) complete, or incomplete
+        with ``reason`` if one is given."""
         marker = read_marker(self.owner) if self.owner is not None else None
         if marker is None:
             return
@@ -663,7 +668,8 @@ class Claim:
             written = {k: v for k, v in marker.get("written_by", {}).items() if k in files}
             written.update({r: self.command for r in rels if r in files})
             marker["written_by"] = dict(sorted(written.items()))
-        if complete and self._new_marker:
+        if complete and (self._new_marker or self.owner == here
+                         and _command_of(marker) == self.command):  # (the claim's own folder)
             marker.update(complete=not reason, reason=reason)
         write_text_atomic(self.owner / MARKER, json.dumps(marker, indent=2) + "\n")
 
