@@ -118,7 +118,7 @@ def test_interrupted_plane_leaves_nothing_or_a_folder_marked_incomplete(tmp_path
         if sent and status == 0:  # (the signal came as it ended: a whole result)
             assert json.loads((out / "run.json").read_text())["complete"]
             continue
-        assert status == 130 if sent else 0, f"{name}: exit {status}: {err}"
+        assert status == (130 if sent else 0), f"{name}: exit {status}: {err}"
         assert _left_clean(work, out) == "", f"{name}: {_left_clean(work, out)}"
 
 
