@@ -163,22 +163,40 @@ def raise_on_signals():
 @contextlib.contextmanager
 def held_signals():
     """Hold SIGINT, SIGTERM and SIGHUP back while the block runs; one that arrives
-    meanwhile is delivered when it ends.
+    meanwhile is handed, when the block ends, to the handler it would have met.
 
-    For the few file-system steps that must not be cut in two (a folder created
-    and marked, a temporary folder removed, a run renamed into place): a signal
-    then acts before or after them, never between. Blocks last milliseconds.
-    Outside the main thread, or without ``signal.pthread_sigmask``, nothing is held.
+    For the few file-system steps that must not be cut in two (a folder created and
+    marked, a temporary folder removed, a run renamed into place): a signal then acts
+    before or after them, never between. Blocks last milliseconds. The signals are
+    held by a recording handler, not by the thread's signal mask, which another
+    thread of the process (a writer's, a progress bar's) would not share; swapping
+    handlers runs the pending ones first (``signal.signal``), so none slips past.
+    Outside the main thread nothing is held.
 
     Yields
     ------
     None
     """
-    if not (_main_thread() and hasattr(signal, "pthread_sigmask")):
+    if not _main_thread():
         yield
         return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    pending = []
+    previous = {s: signal.signal(s, lambda signum, frame: pending.append(signum))
+                for s in STOP_SIGNALS}
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for s, h in previous.items():
+            signal.signal(s, h)  # (runs the recording handler for any signal still pending)
+        for signum in pending:
+            _deliver(signum, previous[signum])
+
+
+def _deliver(signum: int, handler) -> None:
+    """Act on a held signal as ``handler`` (a Python handler, SIG_DFL or SIG_IGN) would."""
+    if callable(handler):
+        handler(signum, None)
+    elif handler == signal.SIG_DFL:
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        os.kill(os.getpid(), signum)  # (its default action: the process ends by it)
