@@ -417,3 +417,20 @@ def test_signal_while_a_claim_writes_marks_its_folder_incomplete(tmp_path):
         for name in ("a.csv", "b.csv"):
             write_text_atomic(claim.folder / name, "y\n")
     assert read_marker(out)["complete"] is True and read_marker(out)["reason"] == ""
+
+
+def test_a_signal_deferred_out_of_the_compiler_is_not_lost():
+    """A signal that came inside llvmlite's callback (where an exception is dropped) is
+    kept: the next run loop starts with it asked for, or raise_deferred raises it."""
+    import signal as _signal
+
+    from granular_chain.interrupts import (DEFERRED, Stopped, raise_deferred,
+                                           stop_signals)
+
+    DEFERRED.append(_signal.SIGTERM)
+    with stop_signals() as stop:
+        assert stop.signum == _signal.SIGTERM
+    DEFERRED.append(_signal.SIGHUP)
+    with pytest.raises(Stopped) as stopped:
+        raise_deferred()
+    assert stopped.value.signum == _signal.SIGHUP and DEFERRED == []
