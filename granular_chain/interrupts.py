@@ -16,11 +16,13 @@ A second signal while the first is being honoured raises
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import threading
 from dataclasses import dataclass
 
-__all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals"]
+__all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals",
+           "raise_on_signals", "held_signals", "raise_deferred", "DEFERRED"]
 
 #: The signals that stop a run cleanly (SIGHUP: the terminal was closed; absent on
 #: Windows).
@@ -98,7 +100,7 @@ def stop_signals():
     if outer is not None:  # already inside stop_signals: share its request
         yield outer
         return
-    request = StopRequest()
+    request = StopRequest(DEFERRED.pop(0) if DEFERRED else 0)  # (one that came compiling)
 
     def handler(signum, frame):
         if request.requested:  # asked twice: stop now, whatever is running
@@ -112,3 +114,114 @@ def stop_signals():
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextlib.contextmanager
+def raise_on_signals():
+    """While the block runs, SIGINT, SIGTERM and SIGHUP raise :class:`Stopped`.
+
+    The command line's frame around a whole command: a signal that arrives before
+    a run's loop takes over (:func:`stop_signals`, which replaces these handlers
+    for its block) or after it (scene loading, kernel compilation, claiming and
+    writing output) unwinds the command at once through its cleanup, and the
+    command exits with 128 + the signal number instead of the signal's default
+    (SIGTERM, SIGHUP: the process dies on the spot, its files as they were).
+    Outside the main thread nothing is changed; in a process forked meanwhile (a
+    pool's worker) the signals keep their default action.
+
+    Yields
+    ------
+    None
+    """
+    if not _main_thread():
+        yield
+        return
+
+    pid = os.getpid()
+
+    def handler(signum, frame):
+        if os.getpid() != pid:  # a forked worker (a pool's): the signal's default action
+            if signum == signal.SIGINT:
+                raise KeyboardInterrupt
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+            return
+        if _in_callback(frame):  # an exception there would be printed and dropped
+            DEFERRED.append(signum)
+            return
+        raise Stopped(signum)
+
+    previous = {s: signal.signal(s, handler) for s in STOP_SIGNALS}
+    try:
+        yield
+        raise_deferred()
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+
+
+#: Signals :func:`raise_on_signals` could not raise where they came (inside a C
+#: library's callback into Python: llvmlite's, while numba compiles): raised by
+#: :func:`raise_deferred`, or taken over by the next :func:`stop_signals`.
+DEFERRED: list = []
+
+
+def _in_callback(frame) -> bool:
+    """Whether ``frame`` runs inside llvmlite's callbacks (ctypes drops exceptions there)."""
+    while frame is not None:
+        if "llvmlite" in frame.f_code.co_filename:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def raise_deferred() -> None:
+    """Raise :class:`Stopped` for a signal deferred out of a callback (see DEFERRED)."""
+    if DEFERRED:
+        raise Stopped(DEFERRED.pop(0))
+
+
+@contextlib.contextmanager
+def held_signals():
+    """Hold SIGINT, SIGTERM and SIGHUP back while the block runs; one that arrives
+    meanwhile is handed, when the block ends, to the handler it would have met.
+
+    For the few file-system steps that must not be cut in two (a folder created and
+    marked, a temporary folder removed, a run renamed into place): a signal then acts
+    before or after them, never between. Blocks last milliseconds. The signals are
+    held by a recording handler, not by the thread's signal mask, which another
+    thread of the process (a writer's, a progress bar's) would not share; swapping
+    handlers runs the pending ones first (``signal.signal``), so none slips past.
+    Outside the main thread nothing is held.
+
+    Yields
+    ------
+    None
+    """
+    if not _main_thread():
+        yield
+        return
+    pending = []
+    previous = {s: signal.signal(s, lambda signum, frame: pending.append(signum))
+                for s in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)  # (runs the recording handler for any signal still pending)
+        for signum in pending:
+            _deliver(signum, previous[signum])
+
+
+def _deliver(signum: int, handler) -> None:
+    """Act on a held signal as ``handler`` (a Python handler, SIG_DFL or SIG_IGN) would."""
+    if callable(handler):
+        handler(signum, None)
+    elif handler == signal.SIG_DFL:
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        os.kill(os.getpid(), signum)  # (its default action: the process ends by it)

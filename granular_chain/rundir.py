@@ -36,6 +36,8 @@ from typing import Iterable, Optional, Sequence
 
 import yaml
 
+from .interrupts import Stopped, held_signals
+
 __all__ = ["MARKER", "OutputError", "RunFolder", "default_out", "read_marker", "check_out",
            "Claim", "claim_folder", "claim_file", "write_atomic", "write_text_atomic",
            "stale_partials", "remove_files", "check_partial"]
@@ -232,26 +234,35 @@ class RunFolder:
         # the folders this run creates, deepest first: removed again if it fails
         self._made = [p for p in [parent, *parent.parents] if not p.exists()]
         self._replaces = read_marker(self.out) is not None  # an earlier run, accepted
+        # A signal acts before the temporary folder exists marked, or after; one that
+        # acts as this ends (or an error) removes it again.
         try:
-            parent.mkdir(parents=True, exist_ok=True)
-            _remove_stale_partials(parent, self.out.name)
-            self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-", dir=parent))
-        except OSError as exc:
-            raise OutputError(f"--out {self.out}: cannot be written "
-                              f"({exc.strerror or exc})") from None
-        self._write_marker(self.tmp, complete=False, reason="running", files=[])
+            with held_signals():
+                try:
+                    parent.mkdir(parents=True, exist_ok=True)
+                    _remove_stale_partials(parent, self.out.name)
+                    self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-",
+                                                     dir=parent))
+                    self._write_marker(self.tmp, complete=False, reason="running", files=[])
+                except OSError as exc:
+                    raise OutputError(f"--out {self.out}: cannot be written "
+                                      f"({exc.strerror or exc})") from None
+        except BaseException:
+            self.__exit__()
+            raise
         return self
 
     def __exit__(self, *exc) -> None:
         if self.published:
             return
-        if self.tmp is not None and self.tmp.exists():
-            shutil.rmtree(self.tmp, ignore_errors=True)
-        for folder in self._made:
-            try:
-                folder.rmdir()
-            except OSError:
-                break  # not empty (or not ours to remove): leave it and its parents
+        with held_signals():  # (removed whole: a signal now acts once it is gone)
+            if self.tmp is not None and self.tmp.exists():
+                shutil.rmtree(self.tmp, ignore_errors=True)
+            for folder in self._made:
+                try:
+                    folder.rmdir()
+                except OSError:
+                    break  # not empty (or not ours to remove): leave it and its parents
 
     def _write_marker(self, folder: Path, *, complete: bool, reason: str,
                       files: Iterable[str], streams: Sequence[str] = ()) -> None:
@@ -311,6 +322,10 @@ class RunFolder:
         reason : str
             Why the run is incomplete (kept in the marker; '' for a complete run).
         """
+        with held_signals():  # (the renames and the earlier run's removal are not cut)
+            self._publish(complete, reason)
+
+    def _publish(self, complete: bool, reason: str) -> None:
         files = [f for f in _files_below(self.tmp) if f != MARKER]
         self._write_marker(self.tmp, complete=complete, reason=reason, files=files)
         umask = os.umask(0)  # mkdtemp made the folder 0700; give it mkdir's mode
@@ -579,40 +594,67 @@ class Claim:
         self._stage: Optional[Path] = None
 
     def __enter__(self) -> "Claim":
-        self._made = [p for p in [self.folder, *self.folder.parents] if not p.exists()]
+        # A signal acts before the folder is made and marked, or after; one that acts
+        # as this ends (or an error) undoes it, as the end of the claim would.
         try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            if self._new_marker:
-                data = {"engine": ENGINE, "version": _version(), "command": self.command,
-                        "complete": False, "reason": "writing", "pid": os.getpid(),
-                        "files": []}
-                write_text_atomic(self.folder / MARKER, json.dumps(data, indent=2) + "\n")
-        except OSError as exc:
-            raise OutputError(f"{self.folder}: cannot be written ({exc.strerror or exc})") \
-                from None
-        self._list(keep=lambda p: True)
+            with held_signals():
+                self._made = [p for p in [self.folder, *self.folder.parents]
+                              if not p.exists()]
+                try:
+                    self.folder.mkdir(parents=True, exist_ok=True)
+                    if self._new_marker:
+                        data = {"engine": ENGINE, "version": _version(),
+                                "command": self.command, "complete": False,
+                                "reason": "writing", "pid": os.getpid(), "files": []}
+                        write_text_atomic(self.folder / MARKER,
+                                          json.dumps(data, indent=2) + "\n")
+                    self._list(keep=lambda p: True)
+                except OSError as exc:
+                    raise OutputError(f"{self.folder}: cannot be written "
+                                      f"({exc.strerror or exc})") from None
+        except BaseException as exc:
+            self.__exit__(type(exc), exc, None)
+            raise
         return self
 
-    def __exit__(self, *exc) -> None:
-        if self._stage is not None:
-            shutil.rmtree(self._stage, ignore_errors=True)
-        self._list(keep=lambda p: p.is_file(), complete=True)
+    def __exit__(self, exc_type, exc, tb) -> None:
+        """Drop the names not written; a claim cut short (a signal, an error) that
+        wrote some files leaves its new folder marked incomplete, with the reason."""
+        reason = "" if exc_type is None else (
+            f"interrupted by {exc}" if isinstance(exc, Stopped) else "interrupted")
+        with held_signals():
+            if self._stage is not None:
+                shutil.rmtree(self._stage, ignore_errors=True)
+            self._list(keep=lambda p: p.is_file(), complete=True, reason=reason)
+            self._undo()
+
+    def _undo(self) -> None:
+        """Remove the new folder's marker when no claimed file was written, then the
+        folders this claim created, deepest first, while empty."""
         if self._new_marker and not any(p.is_file() for p in self.paths):
             (self.folder / MARKER).unlink(missing_ok=True)
-        for folder in self._made:  # deepest first: only those this claim created, if empty
+        for folder in self._made:
             try:
                 folder.rmdir()
             except OSError:
                 break
 
     @property
+    def written(self) -> list[Path]:
+        """The claimed files that exist now (all of them whole: each is renamed into
+        place when written)."""
+        return [p for p in self.paths if p.is_file()]
+
+    @property
     def paths(self) -> list[Path]:
         """The claimed files, as paths."""
         return [self.folder / n for n in self.names]
 
-    def _list(self, keep, complete: bool = False) -> None:
+    def _list(self, keep, complete: bool = False, reason: str = "") -> None:
         """List the claimed names that pass ``keep`` in the owner's marker (the
-        others are dropped), as written by this command."""
+        others are dropped), as written by this command; ``complete``: mark the
+        claim's own folder (new, or one the command marked) complete, or incomplete
+        with ``reason`` if one is given."""
         marker = read_marker(self.owner) if self.owner is not None else None
         if marker is None:
             return
@@ -626,8 +668,9 @@ class Claim:
             written = {k: v for k, v in marker.get("written_by", {}).items() if k in files}
             written.update({r: self.command for r in rels if r in files})
             marker["written_by"] = dict(sorted(written.items()))
-        if complete and self._new_marker:
-            marker.update(complete=True, reason="")
+        if complete and (self._new_marker or self.owner == here
+                         and _command_of(marker) == self.command):  # (the claim's own folder)
+            marker.update(complete=not reason, reason=reason)
         write_text_atomic(self.owner / MARKER, json.dumps(marker, indent=2) + "\n")
 
     def stage(self) -> Path:

@@ -130,10 +130,94 @@ def test_tensile_underdamped_dashpot_still_separates():
     assert c.t_separation == pytest.approx(exact.contact_time, rel=1e-12)
 
 
+#: a plain scene of the two-granule collision with a tensile linear dashpot
+DASHPOT_SCENE = """\
+name: dashpot
+granules: {count: 2, mass: 1.0, radius: 1.0, gap: 0.0, velocity: [1.0, 0.0]}
+contacts:
+  exponent: 2.0
+  stiffness: 1.0
+  damping: {model: linear, coefficient: COEFFICIENT}
+  tensile: true
+run: {stepper: STEPPER, t_end: 200.0, stop: separation}
+output: {every: 100}
+"""
+
+
+def _dashpot_run(tmp_path, capsys, stepper, coefficient):
+    scene = tmp_path / f"{stepper}_{coefficient}.yaml"
+    scene.write_text(DASHPOT_SCENE.replace("STEPPER", stepper)
+                     .replace("COEFFICIENT", repr(coefficient)))
+    out = tmp_path / f"out_{stepper}_{coefficient}"
+    code = main(["run", str(scene), "--out", str(out)])
+    return code, capsys.readouterr().out, json.loads((out / "summary.json").read_text())
+
+
+@pytest.mark.parametrize("stepper", ["event", "verlet"])
+def test_plain_run_of_a_tensile_overdamped_dashpot_reaches_t_end(tmp_path, capsys, stepper):
+    """granular-chain run of the two-granule scene with contacts.damping linear c = 2
+    (damping ratio 1.41), tensile, stop: separation. The closed form never opens; the
+    steppers' overlap crosses zero only once it has decayed to roundoff (event stepper
+    t = 58.09, relative speed 4.4e-16; Verlet t = 64, 3.1e-13), which is not a separation:
+    the run goes on to t_end and says why."""
+    from granular_chain.restitution import linear_dashpot
+
+    assert not linear_dashpot(2.0, 1.0, 0.5, tensile=True).ended
+    code, said, summary = _dashpot_run(tmp_path, capsys, stepper, 2.0)
+    assert code == 0 and summary["status"] == "t_end"
+    assert "separated:" not in said and "\nt_end: reached t_end = 200 after" in said
+    assert "contact 0 never opened: its overlap decayed through roundoff" in said
+
+
+@pytest.mark.parametrize("stepper", ["event", "verlet"])
+def test_plain_run_of_a_tensile_underdamped_dashpot_separates_on_time(tmp_path, capsys, stepper):
+    """Control: c = 1.2 (damping ratio 0.85) opens at the closed form's contact time 4.19:
+    exactly for the event stepper (1.6e-15), to the Verlet step's second order at its
+    default dt = m_eff/(40 c) = 0.0104 (measured 2.4e-5 relative)."""
+    from granular_chain.restitution import linear_dashpot
+
+    exact = linear_dashpot(1.2, 1.0, 0.5, tensile=True)
+    code, said, summary = _dashpot_run(tmp_path, capsys, stepper, 1.2)
+    assert code == 0 and summary["status"] == "separated"
+    rel = 1e-12 if stepper == "event" else 1e-4
+    assert summary["t_final"] == pytest.approx(exact.contact_time, rel=rel)
+
+
+def test_verlet_collide_of_a_tensile_overdamped_dashpot_ends_at_t_max():
+    """collide(..., stepper="verlet", t_max=200): the engine itself goes on to t_max
+    (collide no longer overrides the run's stop), and the message names the reason."""
+    c = collide(2, damping={"model": "linear", "coefficient": 2.0}, tensile=True,
+                stepper="verlet", t_max=200)
+    assert c.result.status == gc.Status.T_END and c.result.t_final == 200.0
+    assert "decayed through roundoff" in c.message and "never opens" in c.message
+
+
+def test_verlet_tensile_underdamped_dashpot_separates_on_time():
+    from granular_chain.restitution import linear_dashpot
+
+    c = collide(2, damping={"model": "linear", "coefficient": 1.2}, tensile=True,
+                stepper="verlet", t_max=200)
+    exact = linear_dashpot(1.2, 1.0, 0.5, tensile=True)
+    assert c.result.status == gc.Status.SEPARATED  # (2.4e-5 at dt = 0.0104)
+    assert c.t_separation == pytest.approx(exact.contact_time, rel=1e-4)
+
+
+def test_opening_below_roundoff_is_not_resolved():
+    from granular_chain.steppers.opening import ROUNDOFF_FACTOR, opening_floor, resolved_opening
+
+    event = opening_floor((0.5, 0.5))
+    assert event == 0.5 * 2.0 ** -52 and not resolved_opening(4.4e-16, event)
+    assert resolved_opening(0.0065, event)
+    verlet = opening_floor((0.5, 0.5), (0.0, 33.0, 35.0), 1 / 160)
+    assert verlet == pytest.approx(0.5 * 2.0 ** -52 + math.ulp(35.0) * 160)
+    assert not resolved_opening(3.1e-13, verlet)
+    assert resolved_opening(1.01 * ROUNDOFF_FACTOR * verlet, verlet)
+
+
 # --- the event stepper's valid range of n -------------------------------------
 
-def test_event_stepper_refuses_exponents_above_its_range(tmp_path, capsys):
-    n = 20.0
+@pytest.mark.parametrize("n", [20.0, 80.0])
+def test_event_stepper_refuses_exponents_above_its_range(tmp_path, capsys, n):
     with pytest.raises(gc.SimulationError, match=r"contacts.exponent: .* n <= "):
         collide(n, stepper="event")
     from granular_chain.steppers.events import MAX_EXPONENT

@@ -355,3 +355,82 @@ def test_sweep_out_makes_a_marked_folder_and_resumes_in_it(work):
     rows = (work / "sw" / "results.csv").read_text()
     assert main([*SWEEP, "--out", "sw"]) == 0  # nothing left to compute
     assert (work / "sw" / "results.csv").read_text() == rows
+
+
+# --- a signal while a claim makes, writes or undoes its folder ----------------------
+
+def _signal_self(signum):
+    import signal as _signal
+    os.kill(os.getpid(), getattr(_signal, signum))
+
+
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_signal_as_a_claim_makes_its_folder_leaves_nothing(tmp_path, monkeypatch, signum):
+    """The signal arrives while the claimed folder is made and marked (held until the
+    folder is whole), then acts: the claim is undone, nothing is left."""
+    import granular_chain.rundir as rundir
+    from granular_chain.interrupts import Stopped, raise_on_signals
+
+    real = rundir.write_text_atomic
+    monkeypatch.setattr(rundir, "write_text_atomic",
+                        lambda path, text: (_signal_self(signum), real(path, text))[1])
+    claim = rundir.claim_folder(tmp_path / "new" / "out", "boundaries", ["a.csv"])
+    # another thread, as a writer's or a progress bar's: the signal may be delivered
+    # to it, and its Python handler then runs in the main thread at any moment
+    import threading
+    done = threading.Event()
+    other = threading.Thread(target=done.wait)
+    other.start()
+    try:
+        with raise_on_signals(), pytest.raises(Stopped):
+            with claim:
+                pytest.fail("the claim's body ran")
+    finally:
+        done.set()
+        other.join()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_signal_while_a_claim_writes_marks_its_folder_incomplete(tmp_path):
+    """Stopped after one of two files: the folder stays, marked incomplete with the
+    reason, listing the file written and nothing else; stopped before any file: nothing."""
+    from granular_chain.interrupts import Stopped
+    from granular_chain.rundir import claim_folder, write_text_atomic
+
+    import signal as _signal
+    out = tmp_path / "out"
+    with pytest.raises(Stopped):
+        with claim_folder(out, "boundaries", ["a.csv", "b.csv"]) as claim:
+            write_text_atomic(claim.folder / "a.csv", "x\n")
+            raise Stopped(_signal.SIGINT)
+    marker = read_marker(out)
+    assert sorted(os.listdir(out)) == ["a.csv", MARKER]
+    assert marker["files"] == ["a.csv"] and marker["complete"] is False
+    assert marker["reason"] == "interrupted by SIGINT"
+    assert claim.written == [out / "a.csv"]
+    with pytest.raises(Stopped):
+        with claim_folder(tmp_path / "none", "boundaries", ["a.csv"]):
+            raise Stopped(_signal.SIGTERM)
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+    # the same command writes the incomplete folder again, and completes it
+    with claim_folder(out, "boundaries", ["a.csv", "b.csv"]) as claim:
+        for name in ("a.csv", "b.csv"):
+            write_text_atomic(claim.folder / name, "y\n")
+    assert read_marker(out)["complete"] is True and read_marker(out)["reason"] == ""
+
+
+def test_a_signal_deferred_out_of_the_compiler_is_not_lost():
+    """A signal that came inside llvmlite's callback (where an exception is dropped) is
+    kept: the next run loop starts with it asked for, or raise_deferred raises it."""
+    import signal as _signal
+
+    from granular_chain.interrupts import (DEFERRED, Stopped, raise_deferred,
+                                           stop_signals)
+
+    DEFERRED.append(_signal.SIGTERM)
+    with stop_signals() as stop:
+        assert stop.signum == _signal.SIGTERM
+    DEFERRED.append(_signal.SIGHUP)
+    with pytest.raises(Stopped) as stopped:
+        raise_deferred()
+    assert stopped.value.signum == _signal.SIGHUP and DEFERRED == []

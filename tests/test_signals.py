@@ -3,12 +3,13 @@
 For each of ``sweep --serial``, ``boundaries``, ``run`` (Verlet) and ``run`` (event
 stepper): one unsignalled short run first (it fills numba's cache), then 20 trials.
 Each trial starts the command on work that lasts far longer than the trial, waits
-until the command has entered its stepping loop (it has installed its SIGHUP
-handler, read from /proc/PID/status: the engine catches SIGHUP only while a run,
-a sweep or a scan goes), sleeps a random (seeded) time of up to 1.5 s, sends
-SIGINT and measures the time from the signal to the process's exit. Start-up
-(imports, loading the kernels) takes what it takes; only the interval from the
-signal to the exit is bounded, by the 2 s of the requirement.
+until the command has started (it has installed its SIGHUP handler, read from
+/proc/PID/status: the command line catches SIGHUP from the command's start,
+``raise_on_signals``, and a run, a sweep or a scan from its loop), sleeps a random
+(seeded) time of up to 1.5 s, so that the signal lands in the command's start (scene,
+kernels) or its loop, sends SIGINT and measures the time from the signal to the
+process's exit. Imports take what they take; only the interval from the signal to the
+exit is bounded, by the 2 s of the requirement.
 """
 
 import random
@@ -104,7 +105,7 @@ def _catches_sighup(pid: int) -> bool:
 
 
 def _trial(command: list, folder: Path, delay: float) -> tuple[int, float, str]:
-    """Start ``command``, SIGINT it ``delay`` s into its loop: (status, seconds, stderr)."""
+    """Start ``command``, SIGINT it ``delay`` s after it started: (status, seconds, stderr)."""
     proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True, cwd=folder)
     try:

@@ -6,12 +6,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 import warnings
 
 from ..extras import MissingExtraError
+from ..interrupts import raise_on_signals
 from ..notices import CompileNotice, GranularChainWarning, PlotSkippedWarning
-from .exit_codes import EXIT_BAD_INPUT, EXIT_INTERRUPTED, fail
+from .exit_codes import EXIT_BAD_INPUT, fail
 
 __all__ = ["main", "build_parser", "show_warning", "COMMANDS"]
 
@@ -105,16 +107,19 @@ def _main(argv) -> int:
         if getattr(args, "out", None) is not None and not str(args.out).strip():
             # an empty --out would fall back to a default place: say so instead
             return fail("--out: is empty; name a new folder (or file, for diagnose)")
-        return _command(args.command).run(args)
+        with raise_on_signals():  # a signal before (or after) a run's loop unwinds at once
+            return _command(args.command).run(args)
     except MissingExtraError as exc:  # an optional library the command needs is absent
         said = str(exc)
         print(said if said.startswith("granular-chain") else f"granular-chain: {said}",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:  # a signal outside a run's own handling (start-up, a
-        # second Ctrl-C): one line, no traceback; what was being written is cleaned up
-        print("granular-chain: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:  # a signal outside a run's own handling (start-up,
+        # compilation, a second Ctrl-C): one line, no traceback; what was being written
+        # is cleaned up
+        signum = getattr(exc, "signum", signal.SIGINT)
+        print(f"granular-chain: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
+        return 128 + signum
     except MemoryError:  # a cap the up-front estimate cannot see (ulimit -v, cgroups)
         print("granular-chain: out of memory: the process could not allocate what the run "
               "needs (a limit such as ulimit -v or a container's may be below the machine's "

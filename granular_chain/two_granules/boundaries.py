@@ -683,11 +683,17 @@ def _run_plane(args, fixed, opts, announce=None) -> int:
     curves = trace_curves((args.param, args.y_param), box, fixed, args.tol,
                           t_max=opts.get("t_max", 1000.0), rtol=opts.get("rtol"),
                           executor="dask" if args.dask else "serial")
-    with claim:
-        paths = write_curves(curves, claim.folder) if curves else []
-        if curves:
-            paths.append(plot_curves(curves, claim.folder / "boundaries_curves.png", box,
-                                     fixed))
+    try:
+        with claim:
+            paths = write_curves(curves, claim.folder) if curves else []
+            if curves:
+                paths.append(plot_curves(curves, claim.folder / "boundaries_curves.png", box,
+                                         fixed))
+    except Stopped as stop:  # (the claim is undone, or its folder marked incomplete)
+        left = (f"{claim.folder} marked incomplete, {len(claim.written)} of its files "
+                f"written" if claim.written else "nothing written")
+        print(f"granular-chain: boundaries: interrupted by {stop}; {left}", file=sys.stderr)
+        return 128 + stop.signum
     summary = {"curves": [{k: v for k, v in c.to_dict().items() if k not in ("points", "normals")}
                           | {"points": len(c.points)} for c in curves],
                "files": [str(p) for p in paths]}

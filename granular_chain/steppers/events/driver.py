@@ -30,6 +30,7 @@ from ...model import Model
 from ...progress import progress_bar
 from ...result import EnergyLedger, Event, Result, ledger_balance
 from ...units import internal_scales, scaled_model, speed_scale, unit_factors
+from ..opening import opening_floor, resolved_opening
 from .options import EventOptions, event_options
 from .output import record_final_frame
 from .pack import Packed, pack_run
@@ -314,6 +315,8 @@ def drive(packed: Packed, stop=None, run=None, bar=None):
                 break
             clock = packed.clock
             mark = (float(clock.time), int(clock.steps))
+        elif code == Status.SEPARATED and not _opening_resolved(packed):
+            pass  # the overlap decayed through roundoff: the run goes on
         else:
             break
         interrupted = stop is not None and stop.requested
@@ -327,6 +330,22 @@ def drive(packed: Packed, stop=None, run=None, bar=None):
             break
     settings["budget"] = 0
     return int(code), time.perf_counter() - start
+
+
+def _opening_resolved(packed: Packed) -> bool:
+    """Whether the watched contact's opening the kernel stopped at is resolved
+    (:func:`~granular_chain.steppers.opening.resolved_opening`: the kernel carries the
+    overlap itself, so only the speeds' roundoff counts); an unresolved one is kept
+    in ``packed.roundoff`` as (time, speed over its floor), for the end message."""
+    j = int(packed.settings.watch)
+    v = packed.records.state.v
+    w = float(v[j] - v[j - 1])
+    floor = opening_floor((v[j - 1], v[j]))
+    if resolved_opening(w, floor):
+        return True
+    if packed.roundoff is None:
+        packed.roundoff = (float(packed.clock.time), w / floor)
+    return False
 
 
 def _out_of_steps(packed: Packed, mark) -> bool:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numba
 import numpy as np
@@ -59,6 +59,10 @@ class Packed:
         not reach t_end; (0.0, 0.0) otherwise.
     out_of_steps : bool
         Stopped by that projection (Status.MAX_STEPS).
+    roundoff : tuple of (float, float) or None
+        (kernel time, relative speed over its roundoff floor) of the first opening of
+        the watched contact that was only its overlap decaying through roundoff (the
+        run went on), else None.
     """
 
     records: EventRecords
@@ -73,6 +77,9 @@ class Packed:
     #: because run.max_steps could not reach t_end
     projection: tuple = (0.0, 0.0)
     out_of_steps: bool = False  #: stopped by that projection (Status.MAX_STEPS)
+    #: (time, relative speed over its roundoff floor) of the watched contact's first
+    #: opening below roundoff (:func:`~..opening.resolved_opening`), or None
+    roundoff: Optional[tuple] = None
 
     @property
     def settings(self) -> "SettingsValues":

@@ -10,6 +10,7 @@ from ...codes import EVENT_KINDS, Status
 from ...ledger import ledger_verdict
 from ...model import Model
 from ...result import OVERLAP_ADVICE, EnergyLedger, Event, Result
+from ..opening import roundoff_note
 from .kernel import ZENO_BATCHES
 from .pack import Packed
 
@@ -216,6 +217,9 @@ def _status(code: int, packed: Packed, clock, model: Model, t: float, nev: int, 
         elif clock.jumped == 2:
             msg += (f"; nothing moves after t = {jumped_from:.12g} (every granule held "
                     f"or at rest), so the state is final")
+        if packed.roundoff is not None:
+            msg += roundoff_note(options.stop_contact, packed.roundoff[0] * tscale,
+                                 packed.roundoff[1])
         return Status.T_END, msg
     if code == Status.SEPARATED:
         return Status.SEPARATED, (f"contact {options.stop_contact} opened at t = {t:.17g} "

@@ -37,6 +37,7 @@ from ...model import Model
 from ...progress import progress_bar
 from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Result, ledger_balance
 from ...units import scaled_parameters
+from ..opening import opening_floor, resolved_opening, roundoff_note
 from .event_log import EventLog, new_event_log
 from .forced import forced_chunk
 from .forced_setup import (FORCED_STATE_ARRAYS, body_work, dashpot_rate, forced_dt_limit,
@@ -354,6 +355,7 @@ class VerletRun:
             STOP_ON_REST if "rest" in stops else 0)
         self.stop_contact = settings.stop_contact if model.count > 1 else 0
         self.log_events = int(scene.output.events)
+        self.roundoff_note = ""  # an opening of the watched contact below roundoff, in words
         self._init_state()
         self.bar = progress_bar(progress, self.t_end)
 
@@ -570,6 +572,8 @@ class VerletRun:
             target = min(self.next_frame, self.next_thermo, self.next_ck,
                          self.steps + chunk.steps, self.n_total)
             code = self._advance(chunk, int(target) - self.steps)
+            if code == Status.SEPARATED and not self._opening_resolved():
+                code = chunk_done  # the overlap decayed through roundoff: the run goes on
             if deferring and self.log.ended is not None:  # a frame handed on ended the run
                 return self._drained()
             if rest_watch:
@@ -616,7 +620,21 @@ class VerletRun:
                 f"stopped after run.max_steps = {self.max_steps} steps at t = {self.t_now:.6g} "
                 f"before t_end = {self.t_end:g}; raise run.max_steps or run.dt")
         shortened = f" (the last one shortened to {self.last_dt:.6g})" if self.short_taken else ""
-        return Status.T_END, f"reached t_end = {self.t_now:.12g} after {self.steps} steps{shortened}"
+        return Status.T_END, (f"reached t_end = {self.t_now:.12g} after {self.steps} "
+                              f"steps{shortened}{self.roundoff_note}")
+
+    def _opening_resolved(self) -> bool:
+        """Whether the watched contact's opening in the last step is resolved
+        (:func:`~granular_chain.steppers.opening.resolved_opening`); an unresolved one
+        is noted in :attr:`roundoff_note` (the run's end message)."""
+        i, u, v = self.stop_contact, self.u, self.v
+        w = v[i + 1] - v[i]
+        floor = opening_floor((v[i], v[i + 1]), (self.model.d0[i], u[i], u[i + 1]), self.dt_now)
+        if resolved_opening(w, floor):
+            return True
+        if not self.roundoff_note:
+            self.roundoff_note = roundoff_note(i, self.t_now, w / floor)
+        return False
 
     def _at_frame(self, frame: Frame, ended, stop):
         """Record a frame; (status, message) when the run ends here, else None.
