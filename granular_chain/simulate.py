@@ -146,7 +146,8 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     """
     if isinstance(scene, Scene) and scene.run.stages:
         return _simulate_stages(scene, progress, writers, keep_frames, resume)
-    return _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint, resume)
+    return _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint, resume,
+                         end_checkpoint)
 
 
 def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume) -> Result:
@@ -158,7 +159,7 @@ def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume) -> Re
     model = preflight(scene)  # the first stage's checks; each stage's run makes its own
 
     def run_one(stage: Scene, stage_writers) -> Result:
-        return _simulate_one(stage, progress, stage_writers, False, None, None, None)
+        return _simulate_one(stage, progress, stage_writers, False, None, None, None, False)
 
     result = run_stages(scene, run_one, writers, keep_frames)
     if scene.run.energy_tolerance is not None:
@@ -170,15 +171,16 @@ def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume) -> Re
 
 
 def _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint,
-                  resume) -> Result:
+                  resume, end_checkpoint) -> Result:
     """:func:`simulate` of one unstaged run (its parameters)."""
     model = preflight(scene)
     with compile_scope(f"{scene.run.stepper} stepper: {model.features.in_words()}"):
-        return _run(scene, model, progress, writers, keep_frames, thermo, checkpoint, resume)
+        return _run(scene, model, progress, writers, keep_frames, thermo, checkpoint, resume,
+                    end_checkpoint)
 
 
 def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, checkpoint,
-         resume) -> Result:
+         resume, end_checkpoint) -> Result:
     """:func:`simulate` once the scene is checked and packed into ``model``."""
     watch = NeighbourWatch(model.radius)
     log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
@@ -204,8 +206,8 @@ def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, che
     if warning:
         result.info.setdefault("warnings", []).append(warning)
     for text in result.info.get("warnings", []):  # kept in info too (summary.json)
-        # (stacklevel 3: said at the line that called simulate)
-        warn(text, OverlapWarning if text == warning else TimeStepWarning, stacklevel=3)
+        # (stacklevel 4: said at the line that called simulate, through _simulate_one)
+        warn(text, OverlapWarning if text == warning else TimeStepWarning, stacklevel=4)
     if scene.run.energy_tolerance is not None:
         result.status, result.message = ledger_verdict(result, scene.run.energy_tolerance,
                                                        "run.energy_tolerance")
