@@ -22,7 +22,7 @@ import threading
 from dataclasses import dataclass
 
 __all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals",
-           "raise_on_signals", "held_signals", "raise_deferred", "DEFERRED"]
+           "raise_on_signals", "held_signals"]
 
 #: The signals that stop a run cleanly (SIGHUP: the terminal was closed; absent on
 #: Windows).
@@ -100,7 +100,7 @@ def stop_signals():
     if outer is not None:  # already inside stop_signals: share its request
         yield outer
         return
-    request = StopRequest(DEFERRED.pop(0) if DEFERRED else 0)  # (one that came compiling)
+    request = StopRequest()
 
     def handler(signum, frame):
         if request.requested:  # asked twice: stop now, whatever is running
@@ -150,24 +150,21 @@ def raise_on_signals():
             signal.signal(signum, signal.SIG_DFL)
             os.kill(os.getpid(), signum)
             return
-        if _in_callback(frame):  # an exception there would be printed and dropped
-            DEFERRED.append(signum)
+        if _in_callback(frame):  # an exception there would be printed and dropped:
+            # the signal comes again a moment later, to whichever handler is current
+            # then (this one, a run's stop request, a held block's), so none is lost
+            resend = threading.Timer(0.02, os.kill, (pid, signum))
+            resend.daemon = True
+            resend.start()
             return
         raise Stopped(signum)
 
     previous = {s: signal.signal(s, handler) for s in STOP_SIGNALS}
     try:
         yield
-        raise_deferred()
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
-
-
-#: Signals :func:`raise_on_signals` could not raise where they came (inside a C
-#: library's callback into Python: llvmlite's, while numba compiles): raised by
-#: :func:`raise_deferred`, or taken over by the next :func:`stop_signals`.
-DEFERRED: list = []
 
 
 def _in_callback(frame) -> bool:
@@ -177,12 +174,6 @@ def _in_callback(frame) -> bool:
             return True
         frame = frame.f_back
     return False
-
-
-def raise_deferred() -> None:
-    """Raise :class:`Stopped` for a signal deferred out of a callback (see DEFERRED)."""
-    if DEFERRED:
-        raise Stopped(DEFERRED.pop(0))
 
 
 @contextlib.contextmanager

@@ -226,9 +226,6 @@ def _summary_scene(folder: Path) -> dict:
 def _source_folder(args) -> tuple[Path, dict]:
     """RUN_DIR and its marker; the refusals that need no scene."""
     source = Path(args.restart)
-    if scene.run.stages:
-        raise OutputError(f"--restart {source}: the scene has run.stages; a staged run "
-                          f"is not continued from a checkpoint: run it again")
     cwd = Path.cwd().resolve()
     if source.resolve() == cwd or source.resolve() in cwd.parents:
         raise OutputError(f"--restart {source}: is the current folder or contains it; run "
@@ -276,8 +273,16 @@ def _continued_scene(args, source: Path, marker: dict, stored: dict):
     return scene, scene_source, overrides, writers
 
 
+def _refuse_stages(source, scene: Scene) -> None:
+    """A staged run (``run.stages``) writes no checkpoint and is not continued."""
+    if scene.run.stages:
+        raise OutputError(f"--restart {source}: the scene has run.stages; a staged run "
+                          f"is not continued from a checkpoint: run it again")
+
+
 def _check_scene(source: Path, stored: dict, scene: Scene, complete: bool) -> None:
     """Refuse a scene that is not the run's own but for a later ``run.t_end``."""
+    _refuse_stages(source, scene)
     given = scene.model_dump(mode="json")
     t_old, t_new = stored.get("run", {}).get("t_end"), scene.run.t_end
     differs = scene_difference(stored, {**given, "run": {**given["run"], "t_end": t_old}})
@@ -320,6 +325,8 @@ def plan_restart(args) -> RestartPlan:
     OutputError
         The folder cannot be continued with this scene.
     """
+    if args.scene:  # refused before the folder is looked at
+        _refuse_stages(args.restart, load_scene(args.scene, list(args.overrides)))
     source, marker = _source_folder(args)
     complete = bool(marker.get("complete"))
     has_checkpoint = (source / CHECKPOINT).is_file()

@@ -18,6 +18,8 @@ import math
 import time
 import warnings
 
+from .codes import Status
+from .interrupts import Stopped
 from .notices import COMPILE_NOTICE, CompileNotice, OverlapWarning, TimeStepWarning
 
 __all__ = ["prepare_kernels", "NOTICE"]
@@ -75,5 +77,8 @@ def prepare_kernels(scene, *, quiet: bool = False) -> float:
         warnings.simplefilter("ignore", TimeStepWarning)
         if quiet:
             warnings.simplefilter("ignore", CompileNotice)
-        simulate(_two_step_copy(scene), progress=False)
+        copy = simulate(_two_step_copy(scene), progress=False)
+    if copy.status == Status.INTERRUPTED:  # a stop meant for the command (also one that
+        # came while numba compiled, which the copy's run took over): the command stops
+        raise Stopped(int(copy.info.get("signal") or 2))
     return time.perf_counter() - start

@@ -359,7 +359,7 @@ add("diagnose-steps", ["diagnose", "{dir}/s.yaml"], "run.max_steps",
 
 ARGPARSE = [
     ("no-command", [], "required"), ("unknown-command", ["frobnicate"], "invalid choice"),
-    ("run-no-scene", ["run"], "scene"), ("run-unknown-flag", ["run", "s.yaml", "--frobnicate"],
+    ("run-unknown-flag", ["run", "s.yaml", "--frobnicate"],
                                           "--frobnicate"),
     ("run-vtk-value", ["run", "s.yaml", "--vtk=1"], "--vtk"),
     ("plot-time-text", ["plot", "x", "--time", "abc"], "--time"),

@@ -78,7 +78,7 @@ def test_signal_leaves_a_run_marked_incomplete(tmp_path, sig, code, name):
     frames = pvd.findall("./Collection/DataSet")
     assert len(frames) >= 1 and all((out / f.get("file")).is_file() for f in frames)
     energy = (out / "energy.csv").read_text().splitlines()
-    assert len(energy) >= 2 and all(len(row.split(",")) == 9 for row in energy)
+    assert len(energy) >= 2 and all(len(row.split(",")) == 10 for row in energy)
     assert sorted(p.name for p in tmp_path.iterdir()) == [out.name]  # no .partial folder
 
 

@@ -229,11 +229,9 @@ def run(args) -> int:
         return fail(str(exc))
     except SimulationError as exc:
         return fail(f"{args.scene or args.restart}: {exc}")
-    from ..interrupts import raise_deferred
     from ..warmup import prepare_kernels
     try:
         prepare_kernels(scene, quiet=args.quiet)
-        raise_deferred()  # (a signal that came while numba compiled)
     except KeyboardInterrupt as exc:  # (raise_on_signals: SIGTERM and SIGHUP too)
         signum = getattr(exc, "signum", 0)
         print(f"granular-chain: interrupted while compiling by {exc or 'SIGINT'}; nothing "
