@@ -8,10 +8,9 @@ on a new machine. The test checks that both exit 0 and that the first one wrote
 a complete run; it prints how long each took (no time limit: a cold compile on a
 loaded machine takes what it takes). ``docs/performance.md`` quotes the times.
 
-Command 2 runs the whole test suite again, so this test runs only when
-``GRANULAR_CHAIN_README_TEST=1`` (``.ci/run`` sets it for a second step, after
-the README's own test command); the inner suite runs without it, so it does not
-recurse.
+Command 2 runs the whole test suite again (cold, about as long as the suite
+itself), so this test runs only when ``GRANULAR_CHAIN_README_TEST=1``; the inner
+suite runs without it, so it does not recurse.
 """
 
 import json
