@@ -4,9 +4,12 @@ import atexit
 import math
 import os
 import shutil
+import signal
+import subprocess
 import tempfile
 
 import numpy as np
+import pytest
 from hypothesis import settings
 
 from granular_chain._compile import LOCK_DIR_ENV
@@ -19,6 +22,53 @@ if "PYTEST_XDIST_WORKER" not in os.environ and LOCK_DIR_ENV not in os.environ:
     _locks = tempfile.mkdtemp(prefix="gc-compile-locks-")
     os.environ[LOCK_DIR_ENV] = _locks
     atexit.register(shutil.rmtree, _locks, True)
+
+# A child process that never ends is a bug to be shown, not waited for: with Python's
+# fault handler on, SIGABRT makes it print every thread's stack (see finish).
+os.environ.setdefault("PYTHONFAULTHANDLER", "1")
+
+#: Seconds a test waits for a child process it has told to stop (or that should end by
+#: itself) before it takes that child for hung: far above any such wait seen, cold
+#: compiles included; a guard against a hang, not a measure of speed.
+HUNG_AFTER = 900.0
+
+
+def finish(proc: subprocess.Popen, what: str, seconds: float = HUNG_AFTER, log=None):
+    """Wait for ``proc`` to end, reading its pipes; if it has not ended after
+    ``seconds``, make it print its threads' stacks (SIGABRT: Python's fault handler),
+    kill it and fail the test with what it wrote on stderr.
+
+    Parameters
+    ----------
+    proc : subprocess.Popen
+        The child, started with this environment (PYTHONFAULTHANDLER=1).
+    what : str
+        What the child was asked to do, for the failure message.
+    seconds : float
+        How long to wait.
+    log : path-like, optional
+        The file the child's stderr goes to, when it is not a pipe.
+
+    Returns
+    -------
+    tuple
+        (exit status, stdout, stderr); None for a stream that is not a pipe.
+    """
+    try:
+        out, err = proc.communicate(timeout=seconds)
+        return proc.returncode, out, err
+    except subprocess.TimeoutExpired:
+        pass
+    proc.send_signal(signal.SIGABRT)
+    try:
+        out, err = proc.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+    if log is not None:
+        err = open(log, errors="replace").read()
+    pytest.fail(f"hung: {what} had not ended after {seconds:.0f} s; its stacks:\n{err}")
+
 
 # The suite draws the same examples on every run (a check that lands must not
 # depend on luck); HYPOTHESIS_PROFILE=explore draws fresh ones to look for new

@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import finish
 
 from granular_chain.cli import main
 
@@ -225,8 +226,8 @@ def test_output_to_a_closed_pipe_is_dropped(tmp_path, command):
     if command == "run":
         proc.stdout.readline()  # as head -1: one line, then the reader goes
     proc.stdout.close()  # (validate: gone before the report, printed after the imports)
-    err = proc.stderr.read()
-    assert proc.wait() == 0, err
+    code, _, err = finish(proc, f"{command} writing to a closed pipe")
+    assert code == 0, err
     assert "Traceback" not in err and "BrokenPipe" not in err, err
     if command == "run":
         assert json.loads((out / "run.json").read_text())["complete"] is True
@@ -256,7 +257,7 @@ def hung_up_run(tmp_path_factory):
             time.sleep(0.01)
         time.sleep(0.5)
         proc.send_signal(signal.SIGHUP)
-        err = proc.communicate()[1]
+        _, _, err = finish(proc, "run after SIGHUP")
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -6,14 +6,17 @@ import fcntl
 import io
 import os
 import pty
+import select
 import struct
 import subprocess
 import sys
 import termios
+import time
 import types
 
 import pytest
 import yaml
+from conftest import HUNG_AFTER, finish
 
 import granular_chain as gc
 from granular_chain import progress as gp
@@ -53,7 +56,14 @@ def _on_a_terminal(cmd) -> tuple:
                             env=_env(), cwd=ROOT)
     os.close(slave)
     chunks = []
-    while True:
+    deadline = time.monotonic() + HUNG_AFTER
+    while time.monotonic() < deadline:
+        # (a read with nothing to read blocks: look first, and stop looking once the
+        # child has ended and its last output is read)
+        if not select.select([master], [], [], 0.5)[0]:
+            if proc.poll() is not None:
+                break
+            continue
         try:
             data = os.read(master, 65536)
         except OSError:  # EIO: the child closed the terminal
@@ -62,7 +72,7 @@ def _on_a_terminal(cmd) -> tuple:
             break
         chunks.append(data)
     os.close(master)
-    return proc.wait(), b"".join(chunks)
+    return finish(proc, f"{cmd} on a terminal", seconds=60.0)[0], b"".join(chunks)
 
 
 @pytest.mark.parametrize("stepper", ["verlet", "event"])

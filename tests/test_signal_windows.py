@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import finish
 
 pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(not Path("/proc/self/status").exists(),
@@ -56,8 +57,8 @@ def _signalled(command, cwd, signum, when, env=None):
         sent = proc.poll() is None
         if sent:
             proc.send_signal(signum)
-        proc.wait()
-        return proc.returncode, proc.stderr.read(), sent
+        code, _, err = finish(proc, f"{command} after signal {signum}")
+        return code, err, sent
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -151,7 +152,7 @@ def test_signal_while_compiling_stops_a_run_cleanly(tmp_path, signum):
                 time.sleep(0.002)
             assert proc.poll() is None, log.read_text()
             proc.send_signal(signum)
-            proc.wait()
+            finish(proc, f"run while compiling, after signal {signum}", log=log)
         finally:
             if proc.poll() is None:
                 proc.kill()

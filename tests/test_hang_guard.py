@@ -1,0 +1,28 @@
+"""The suite's guard against a hung child process (conftest.finish): the child prints
+its threads' stacks and the test fails naming it, instead of waiting for ever."""
+
+import subprocess
+import sys
+
+import pytest
+from conftest import finish
+
+SLEEPER = "import time\ndef stuck_here():\n    time.sleep(600)\nstuck_here()\n"
+
+
+def test_a_hung_child_prints_its_stack_and_fails_the_test():
+    proc = subprocess.Popen([sys.executable, "-c", SLEEPER], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    with pytest.raises(pytest.fail.Exception) as failed:
+        finish(proc, "the sleeper", seconds=1.0)
+    message = str(failed.value)
+    assert "hung: the sleeper had not ended after 1 s" in message
+    assert "stuck_here" in message  # (the fault handler's dump of its stack)
+    assert proc.returncode is not None
+
+
+def test_a_child_that_ends_gives_its_status_and_output():
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; print('out'); "
+                             "sys.stderr.write('err'); sys.exit(3)"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert finish(proc, "a short child") == (3, "out\n", "err")
