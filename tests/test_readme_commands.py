@@ -70,8 +70,9 @@ def _tracked_copy(dest: Path) -> None:
 
 
 def _run_cold(command: str, workdir: Path, cache: Path) -> tuple[int, float, str]:
-    env = {k: v for k, v in os.environ.items()
-           if k not in (ENV_FLAG, "VIRTUAL_ENV", "PYTHONPATH") and not k.startswith("PYTEST")}
+    env = {k: v for k, v in os.environ.items()  # (a user's shell: none of the suite's settings)
+           if k not in (ENV_FLAG, "VIRTUAL_ENV", "PYTHONPATH", "GRANULAR_CHAIN_COMPILE_LOCKS")
+           and not k.startswith("PYTEST")}
     env["NUMBA_CACHE_DIR"] = str(cache)
     start = time.perf_counter()
     proc = subprocess.run(["bash", "-c", command], cwd=workdir, env=env,
