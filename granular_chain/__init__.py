@@ -46,9 +46,9 @@ from .readback import read_run  # noqa: E402
 from .result import Event, Result, Status  # noqa: E402
 from .scene import Scene, SceneError, load_scene, scene_from_dict  # noqa: E402
 from .simulate import SimulationError, simulate  # noqa: E402
+from .version import __version__  # noqa: E402
 
 __all__ = ["Scene", "SceneError", "load_scene", "scene_from_dict", "simulate", "Result",
            "Status", "Event", "SimulationError", "read_run", "MissingExtraError",
            "GranularChainWarning", "OverlapWarning", "TimeStepWarning", "PlotSkippedWarning",
            "CompileNotice"]
-__version__ = "0.1.0"

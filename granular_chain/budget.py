@@ -34,6 +34,10 @@ import os
 from dataclasses import dataclass
 from typing import Optional
 
+from .errors import SimulationError
+from .model import build_model, scale_problem
+from .steppers.verlet.driver import default_dt
+
 __all__ = ["Budget", "check_budget", "steps_and_dt", "available_memory", "estimate_memory"]
 
 VERLET_STATE_BYTES = 24 * 8
@@ -179,7 +183,6 @@ def _event_frames(scene) -> int:
 
 
 def _refuse(field: str, problem: str):
-    from .simulate import SimulationError  # simulate imports this module
     return SimulationError(f"{field}: {problem}")
 
 
@@ -205,7 +208,6 @@ def _verlet_steps(scene, model) -> tuple[int, float]:
     if run.dt is not None:
         dt, how = run.dt, ""
     else:  # the driver's own default (contact time, dashpots, a sine wall's period)
-        from .simulate import default_dt
         dt = default_dt(model, t_end)
         how = (f" (the default dt: 1/200 of the shortest contact time "
                f"{model.shortest_period():.4g}, or less for dashpots or a driven wall)")
@@ -328,9 +330,7 @@ def check_budget(scene, model=None, available: Optional[int] = None) -> Budget:
     """
     _check_state_fits(scene, available)
     if model is None:
-        from .model import build_model
         model = build_model(scene)
-    from .model import scale_problem
     problem = scale_problem(model)
     if problem:
         raise _refuse(*problem)

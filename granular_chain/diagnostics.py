@@ -52,14 +52,13 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from .result import Result, Status
+from .result import Result, Status, run_model
 
 __all__ = [
     "PulseFit", "peak_times", "pulse_speed", "pulse_position", "pulse_width",
     "pulse_widths_along", "fitted_width", "backscatter", "energy_ledger", "pulse_death_time",
     "penetration_depth", "nesterenko_speed", "nesterenko_width", "summarize",
     "frame_resolution", "FRAME_INTERVAL_WARN", "PEAK_SHORTFALL_WARN",
-    "add_diagnose_parser", "run_diagnose_command",
 ]
 
 # Half-width of the cos^4 hump in units of a: the support is |x| <= 5 pi a / (2 sqrt 10).
@@ -120,8 +119,7 @@ def _masses(result: Result, model_or_scene, count: int) -> np.ndarray:
 
 def _run_model(result: Result, scene):
     """The Model the run used (attached by simulate and read_run; for a Result put
-    together by hand, built from ``scene`` by :func:`~.readback.run_model`)."""
-    from .readback import run_model
+    together by hand, built from ``scene`` by :func:`~.result.run_model`)."""
     return run_model(result, scene)
 
 
@@ -721,15 +719,3 @@ def summarize(result: Result, model_or_scene=None, *, first: int = 3,
     if not math.isfinite(out["pulse_death_time"]):
         out["pulse_death_time"] = None
     return out
-
-
-#: The ``granular-chain diagnose`` command lives in :mod:`granular_chain.cli.diagnose`;
-#: its two functions are importable from here too (loaded on first use).
-_COMMAND = {"add_diagnose_parser": "add_parser", "run_diagnose_command": "run"}
-
-
-def __getattr__(name: str):
-    if name in _COMMAND:
-        from .cli import diagnose as command
-        return getattr(command, _COMMAND[name])
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -16,10 +16,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Optional
 
+import h5py
 import numpy as np
 
-__all__ = ["read_run", "run_model", "summary_info"]
+from .conventions import FRAME_FIELDS, event_kind_names
+from .initial_state import StateFileError
+from .result import TERMS_ADDED, EnergyLedger, Event, Result, Status, run_model
+from .scene import parse_yaml_value, scene_from_dict
+
+__all__ = ["read_run", "read_h5", "read_trajectory", "run_model", "summary_info"]
 
 
 def read_run(path):
@@ -52,8 +59,6 @@ def read_run(path):
     if (folder / "summary.json").is_file():
         summary = json.loads((folder / "summary.json").read_text())
     if h5.is_file():
-        from .writers.trajectory import read_h5
-
         result, scene = read_h5(h5, summary)
     elif summary:
         result, scene = _from_summary(summary, folder)
@@ -61,40 +66,11 @@ def read_run(path):
         raise FileNotFoundError(f"{path}: not a run folder (no trajectory.h5, no summary.json)")
     result.scene = scene
     if scene is not None:
-        from .initial_state import StateFileError
         try:
             run_model(result)
         except StateFileError:  # started from a state file that is gone: the frames
             pass  # still read back; run_model says why when the constants are asked for
     return result
-
-
-def run_model(result, scene=None):
-    """The chain constants of a run: ``result.model``, built from its scene if need be.
-
-    :func:`granular_chain.simulate` attaches the Model it ran; a Result read
-    back by :func:`read_run`, or put together by hand, gets it here, built once
-    from ``scene`` (default ``result.scene``) and attached. This is the one
-    place where a Result's Model is rebuilt from a Scene.
-
-    Parameters
-    ----------
-    result : Result
-        A run, as simulate() returned it or read_run() read it.
-    scene : Scene, optional
-        Scene to build the Model from (default ``result.scene``).
-
-    Returns
-    -------
-    Model or None
-        None when the Result has neither a Model nor a scene.
-    """
-    if result.model is None:
-        scene = scene if scene is not None else result.scene
-        if scene is not None:
-            from .model import build_model
-            result.model = build_model(scene)
-    return result.model
 
 
 _SUMMARY_KEYS = {"status", "status_code", "success", "message", "stepper", "dt", "t_final",
@@ -120,9 +96,6 @@ def summary_info(summary: dict) -> dict:
 
 def _from_summary(summary: dict, folder: Path):
     """A Result without frames from summary.json (a run written without its trajectory)."""
-    from .result import EnergyLedger, Result, Status
-    from .scene import scene_from_dict
-
     n = len(summary["x_final"])
     empty = np.zeros(0)
     result = Result(
@@ -140,3 +113,92 @@ def _from_summary(summary: dict, folder: Path):
     if "scene" in summary:
         scene = scene_from_dict(summary["scene"], source=str(folder / "summary.json"), stored=True)
     return result, scene
+
+
+def _scene_from_attr(h5, path):
+    """The scene stored in the file (YAML; JSON in older files, which YAML reads too)."""
+    if "scene" not in h5.attrs:
+        return None
+    return scene_from_dict(parse_yaml_value(str(h5.attrs["scene"])), source=str(path),
+                           stored=True)
+
+
+def read_h5(path, summary: Optional[dict] = None):
+    """Read a trajectory.h5 into ``(Result, Scene or None)``, every array as written.
+
+    ``summary`` (summary.json's content) supplies what files of the earlier
+    layout (``t``, ``energy/*``, ``events/*``) did not hold: final state, steps,
+    wall time and event counts.
+
+    Parameters
+    ----------
+    path : path
+        The trajectory.h5 file.
+    summary : dict, optional
+        summary.json's content (needed only for files of the earlier layout).
+
+    Returns
+    -------
+    tuple
+        ``(Result, Scene or None)``, in the units the file was written in.
+
+    Raises
+    ------
+    ValueError
+        When the file has no status (the run did not finish writing it).
+    """
+    summary = summary or {}
+    with h5py.File(path, "r") as h5:
+        a = h5.attrs
+        if "status" not in a:
+            raise ValueError(f"{path}: the run did not finish writing this file (no status)")
+        legacy = "time" not in h5
+        t = h5["t" if legacy else "time"][...]
+        x, v, f = (h5[name][...] for name in FRAME_FIELDS)
+        g = h5["energy"] if legacy else h5
+        initial = float(g.attrs["initial"] if legacy else a["energy_initial"])
+        energy = EnergyLedger(*(g[name][...] for name in ("kinetic", "potential", "coulomb",
+                                                          "viscous")), initial=initial,
+                              **{name: g[name][...] for name in TERMS_ADDED if name in g})
+        if legacy:
+            ev = h5["events"] if "events" in h5 else None
+            cols = (ev["t"][...], ev["kind"][...], ev["index"][...]) if ev else ((), (), ())
+        else:
+            cols = (h5["event_time"][...], event_kind_names(h5["event_kind"]),
+                    h5["event_index"][...])
+        steps = h5["event_step"][...] if "event_step" in h5 else np.full(len(cols[0]), -1)
+        events = [Event(float(s), k.decode() if isinstance(k, bytes) else str(k), int(i), int(n))
+                  for s, k, i, n in zip(*cols, steps)]
+        fin = {**summary, "info": summary_info(summary)} if legacy else {
+            "x_final": h5["x_final"][...], "v_final": h5["v_final"][...],
+            "t_final": a["t_final"], "steps": a["steps"], "wall_time_s": a["wall_time_s"],
+            "event_counts": json.loads(a["event_counts"]), "info": json.loads(a["info"])}
+        result = Result(
+            t=t, x=x, v=v, f=f, energy=energy, status=Status[str(a["status"]).upper()],
+            message=str(a["message"]), steps=int(fin.get("steps", 0)),
+            wall_time=float(fin.get("wall_time_s", 0.0)), stepper=str(a["stepper"]),
+            dt=float(a["dt"]) if "dt" in a else None,
+            t_final=float(fin.get("t_final", t[-1] if t.size else 0.0)),
+            x_final=np.asarray(fin.get("x_final", x[-1] if t.size else []), dtype=np.float64),
+            v_final=np.asarray(fin.get("v_final", v[-1] if t.size else []), dtype=np.float64),
+            events=events, event_counts=dict(fin.get("event_counts", {})),
+            info=dict(fin.get("info", {})))
+        scene = _scene_from_attr(h5, path)
+    return result, scene
+
+
+def read_trajectory(folder):
+    """Read a run folder back: ``(Result, Scene or None)`` (see :func:`granular_chain.read_run`).
+
+    Parameters
+    ----------
+    folder : path
+        A run's output folder.
+
+    Returns
+    -------
+    tuple
+        ``(Result, Scene or None)``, scene units.
+    """
+    result = read_run(folder)
+    return result, result.scene

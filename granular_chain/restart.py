@@ -35,6 +35,8 @@ from .checkpoint import CHECKPOINT, load_checkpoint, save_checkpoint, scene_diff
 from .rundir import (MARKER, OutputError, _pid_alive, check_out, check_partial, read_marker,
                      remove_files)
 from .scene import Scene, apply_overrides, load_scene, scene_from_dict
+from .simulate import step_plan
+from .writers.thermo import thermo_every
 
 __all__ = ["RestartPlan", "plan_restart", "extension_problem", "WRITER_FLAGS"]
 
@@ -178,9 +180,6 @@ def extension_problem(old: Scene, new: Scene, model) -> str:
     str
         What depends on t_end, in words; '' when nothing does.
     """
-    from .simulate import step_plan
-    from .writers.thermo import thermo_every
-
     if new.run.stepper != "verlet":
         return ("the event stepper's steps before t_end depend on it (the last one ends "
                 "at t_end, and events are searched within each step)")

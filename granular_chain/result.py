@@ -12,10 +12,13 @@ from typing import Optional
 
 import numpy as np
 
+from . import dataset
 from .codes import Status
 from .extras import require
+from .model import build_model
 
-__all__ = ["Status", "Event", "EnergyLedger", "Result", "TERMS_ADDED", "ledger_balance"]
+__all__ = ["Status", "Event", "EnergyLedger", "Result", "TERMS_ADDED", "ledger_balance",
+           "run_model"]
 
 
 # What a run ending with Status.OVERLAP tells the user to change.
@@ -326,8 +329,7 @@ class Result:
             constants and the final state (granule), the event log (event); scene units.
         """
         require("xarray", "Result.to_xarray")
-        from .writers.trajectory import to_xarray
-        return to_xarray(self, self.scene)
+        return dataset.to_xarray(self, self.scene, run_model(self))
 
     def events_frame(self):
         """The event log as a ``pandas.DataFrame`` with columns step, t, kind, index (one
@@ -389,3 +391,30 @@ class Result:
             "wall_time_s": float(self.wall_time),
             **{k: v for k, v in self.info.items()},
         }
+
+
+def run_model(result, scene=None):
+    """The chain constants of a run: ``result.model``, built from its scene if need be.
+
+    :func:`granular_chain.simulate` attaches the Model it ran; a Result read
+    back by :func:`~granular_chain.readback.read_run`, or put together by hand, gets it here, built once
+    from ``scene`` (default ``result.scene``) and attached. This is the one
+    place where a Result's Model is rebuilt from a Scene.
+
+    Parameters
+    ----------
+    result : Result
+        A run, as simulate() returned it or read_run() read it.
+    scene : Scene, optional
+        Scene to build the Model from (default ``result.scene``).
+
+    Returns
+    -------
+    Model or None
+        None when the Result has neither a Model nor a scene.
+    """
+    if result.model is None:
+        scene = scene if scene is not None else result.scene
+        if scene is not None:
+            result.model = build_model(scene)
+    return result.model

@@ -36,6 +36,7 @@ from typing import Iterable, Optional, Sequence
 
 import yaml
 
+from .version import __version__
 from .interrupts import Stopped, held_signals
 
 __all__ = ["MARKER", "OutputError", "RunFolder", "default_out", "read_marker", "check_out",
@@ -51,7 +52,6 @@ class OutputError(ValueError):
 
 
 def _version() -> str:
-    from . import __version__
     return __version__
 
 

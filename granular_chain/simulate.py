@@ -23,6 +23,7 @@ from .notices import OverlapWarning, TimeStepWarning, warn
 from .result import Result
 from .scene import Scene
 from .stages import run_stages
+from .steppers.events import check_exponents, event_options, simulate_events
 from .steppers.verlet.driver import (  # noqa: F401  (re-exported: benchmarks and tests)
     StepPlan,
     VerletRun,
@@ -63,7 +64,6 @@ def preflight(scene: Scene) -> Model:
     """
     model = check_budget(scene).model  # refuses, before allocating, what cannot run
     if scene.run.stepper == "event":
-        from .steppers.events import check_exponents
         check_exponents(model)
     if scene.run.stepper == "verlet" and scene.run.check_dt:
         dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
@@ -187,8 +187,6 @@ def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, che
     every = scene.output.checkpoint_every
     try:
         if scene.run.stepper == "event":
-            from .steppers.events import event_options, simulate_events
-
             def synced(state):  # the writers have every frame so far before the state
                 log.sync()
                 checkpoint(state)

@@ -20,7 +20,9 @@ import warnings
 
 from .codes import Status
 from .interrupts import Stopped
+from .model import build_model
 from .notices import COMPILE_NOTICE, CompileNotice, OverlapWarning, TimeStepWarning
+from .simulate import default_dt, simulate
 
 __all__ = ["prepare_kernels", "NOTICE"]
 
@@ -30,9 +32,6 @@ NOTICE = COMPILE_NOTICE
 
 def _two_step_copy(scene):
     """The scene cut to two steps (same features, same kernels, nothing worth writing)."""
-    from .model import build_model
-    from .simulate import default_dt
-
     tiny = scene.model_copy(deep=True)
     tiny.run.stages = None  # (the first stage's kernels are every stage's)
     model = build_model(scene)
@@ -68,8 +67,6 @@ def prepare_kernels(scene, *, quiet: bool = False) -> float:
     float
         Seconds of compiling or loading.
     """
-    from .simulate import simulate
-
     start = time.perf_counter()
     with warnings.catch_warnings():
         # what the two-step copy could warn about is the copy's (the run says its own)

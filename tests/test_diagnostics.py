@@ -21,6 +21,7 @@ import pytest
 
 import granular_chain as gc
 from granular_chain import diagnostics as dg
+from granular_chain.cli import diagnose as diagnose_command
 from granular_chain.model import build_model
 
 
@@ -204,17 +205,17 @@ def test_diagnose_command_on_scene_and_run_dir(tmp_path, capsys):
         "run: {dt: 0.01, t_end: 25}\noutput: {every: 4}\n")
     parser = argparse.ArgumentParser()
     sub = parser.add_subparsers(dest="command")
-    dg.add_diagnose_parser(sub)
+    diagnose_command.add_parser(sub)
     args = parser.parse_args(["diagnose", str(path), "--out", str(tmp_path / "d.json")])
-    assert dg.run_diagnose_command(args) == 0
+    assert diagnose_command.run(args) == 0
     first = json.loads(capsys.readouterr().out)
     assert first["pulse"]["speed"] == pytest.approx(0.84, abs=0.01)
     scene = gc.load_scene(path)
     r = gc.simulate(scene, progress=False)
     write_trajectory(r, tmp_path, scene)
     args = parser.parse_args(["diagnose", str(tmp_path)])
-    assert dg.run_diagnose_command(args) == 0
+    assert diagnose_command.run(args) == 0
     second = json.loads(capsys.readouterr().out)
     assert second["pulse"]["speed"] == pytest.approx(first["pulse"]["speed"], rel=1e-12)
     args = parser.parse_args(["diagnose", str(tmp_path / "missing.yaml")])
-    assert dg.run_diagnose_command(args) == 2
+    assert diagnose_command.run(args) == 2

@@ -124,7 +124,7 @@ def forbid(monkeypatch):
 
     for module, name in (("paper.figures", "make_figures"),
                          ("two_granules.curves", "trace_curves"),
-                         ("writers.trajectory", "read_trajectory"), ("readback", "read_run"),
+                         ("readback", "read_trajectory"), ("readback", "read_run"),
                          ("simulate", "simulate"), ("sweep.execute", "run_batch")):
         monkeypatch.setattr(import_module(f"granular_chain.{module}"), name, _no_work)
 

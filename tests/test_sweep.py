@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 from granular_chain import sweep as sw
+from granular_chain.cli import sweep as sweep_command
+from granular_chain.sweep import point as sweep_point
 from granular_chain.two_granules import collide
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -36,7 +38,7 @@ def comparable(rs):
 def counted(monkeypatch):
     """Count evaluate_point calls; raise KeyboardInterrupt at call number `stop_at`."""
     state = {"calls": 0, "stop_at": None}
-    real = sw.evaluate_point
+    real = sweep_point.evaluate_point
 
     def wrapper(*a, **k):
         state["calls"] += 1
@@ -44,7 +46,7 @@ def counted(monkeypatch):
             raise KeyboardInterrupt
         return real(*a, **k)
 
-    monkeypatch.setattr(sw, "evaluate_point", wrapper)
+    monkeypatch.setattr(sweep_point, "evaluate_point", wrapper)
     return state
 
 
@@ -183,23 +185,23 @@ def test_errors_become_rows_and_heat_maps_are_drawn(tmp_path):
 def test_sweep_command(tmp_path, capsys):
     parser = argparse.ArgumentParser()
     sub = parser.add_subparsers(dest="command")
-    sw.add_sweep_parser(sub)
+    sweep_command.add_parser(sub)
     out = tmp_path / "o"
     args = parser.parse_args(["sweep", str(ETA_MAP), *sum((["--grid", a] for a in AXES), []),
                               "--serial", "--out", str(out), "--quantity", "v2",
                               "--quantity", "outcome", "--quiet"])
-    assert sw.run_sweep_command(args) == 0
+    assert sweep_command.run(args) == 0
     assert (out / "heatmap_v2.png").exists() and (out / "heatmap_outcome.png").exists()
     assert json.loads((out / "sweep.json").read_text())["axes"] == AXES
     args = parser.parse_args(["sweep", str(ETA_MAP), "--grid", "x=0:1", "--serial",
                               "--out", str(out)])
-    assert sw.run_sweep_command(args) == 2
+    assert sweep_command.run(args) == 2
     # A chain scene swept over N with --list, frames kept for the pulse speed.
     chain = ROOT / "scenarios" / "chain_striker.yaml"
     args = parser.parse_args(["sweep", str(chain), "--list", "granules.count=12,20",
                               "--set", "run.t_end=20", "--frames", "--serial", "--quiet",
                               "--out", str(tmp_path / "c")])
-    assert sw.run_sweep_command(args) == 0
+    assert sweep_command.run(args) == 0
     rs = rows(tmp_path / "c" / "results.csv")
     assert [r["granules.count"] for r in rs] == ["12", "20"]
     assert float(rs[1]["pulse_speed"]) == pytest.approx(0.84, abs=0.02)

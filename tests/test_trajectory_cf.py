@@ -14,7 +14,8 @@ import granular_chain as gc
 from granular_chain.codes import EVENT_KINDS
 from granular_chain.result import Event
 from granular_chain.writers.summary import write_summary
-from granular_chain.writers.trajectory import event_kind_names, write_trajectory
+from granular_chain.conventions import event_kind_names
+from granular_chain.writers.trajectory import write_trajectory
 
 ROOT = Path(__file__).resolve().parents[1]
 EVENTS = [Event(0.25, "contact_close", 0, 25), Event(0.5, "slip", 1, 50),

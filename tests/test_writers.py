@@ -192,7 +192,8 @@ def test_events_csv_when_events_are_logged(run, tmp_path):
 
 
 def test_trajectory_round_trip_with_events(run, tmp_path):
-    from granular_chain.writers.trajectory import read_trajectory, write_trajectory
+    from granular_chain.readback import read_trajectory
+    from granular_chain.writers.trajectory import write_trajectory
 
     scene, result = run
     events = [Event(0.5, "slip", 3, 42)]

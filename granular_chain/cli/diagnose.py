@@ -66,7 +66,7 @@ def run(args) -> int:
                 print(f"granular-chain: {target}: no trajectory.h5 (run with trajectory on)",
                       file=sys.stderr)
                 return 2
-            from ..writers.trajectory import read_trajectory
+            from ..readback import read_trajectory
             try:
                 result, scene = read_trajectory(target)
             except (OSError, ValueError) as exc:

@@ -13,6 +13,7 @@ import warnings
 from ..extras import MissingExtraError
 from ..interrupts import raise_on_signals
 from ..notices import CompileNotice, GranularChainWarning, PlotSkippedWarning
+from ..version import __version__
 from .exit_codes import EXIT_BAD_INPUT, fail
 
 __all__ = ["main", "build_parser", "show_warning", "COMMANDS"]
@@ -44,12 +45,8 @@ def build_parser() -> argparse.ArgumentParser:
     argparse.ArgumentParser
         The parser.
     """
-    from .. import __version__
-    from . import __doc__ as description
-
-    # (the docstring's first paragraph: what the command is and its subcommands)
-    parser = _Parser(prog="granular-chain", description=" ".join(
-        description.split("\n\n")[0].replace("``", "").split()))
+    parser = _Parser(prog="granular-chain",
+                     description=f"The granular-chain command: {' | '.join(COMMANDS)}.")
     parser.add_argument("--version", action="version", version=f"granular-chain {__version__}")
     subparsers = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:

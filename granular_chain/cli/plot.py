@@ -58,7 +58,7 @@ def run(args) -> int:
                         f"granule indices")
     from ..rundir import OutputError, claim_folder
     from ..writers.plots import PLOT_DIR, write_plots
-    from ..writers.trajectory import read_trajectory
+    from ..readback import read_trajectory
 
     # --out names the PNG folder itself; by default they go to RUN_DIR/plots/.
     folder = Path(args.out) if args.out else run_dir / PLOT_DIR

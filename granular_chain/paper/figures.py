@@ -39,9 +39,7 @@ Command line (wired in :mod:`granular_chain.cli`)::
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 import time
 from pathlib import Path
 from typing import Callable, Optional, Sequence
@@ -58,7 +56,6 @@ __all__ = [
     "collision_values", "collision_grid", "hertz_maps",
     "fig_velocity", "fig_energy", "fig_timecompare2", "fig_timecompare3",
     "fig_finalv1", "fig_hertz", "fig_finalv1m5", "FIGURES", "make_figures",
-    "add_figures_parser", "run_figures_command",
 ]
 
 SQRT2 = math.sqrt(2.0)
@@ -621,79 +618,3 @@ def make_figures(out: Path, only: Optional[Sequence[str]] = None, grid: int = 10
         if log is not None:
             log(f"{name:13s} {dt:7.2f} s  {path}")
     return done
-
-
-def add_figures_parser(subparsers) -> argparse.ArgumentParser:
-    """Add ``granular-chain figures`` to the CLI's subparsers.
-
-    Parameters
-    ----------
-    subparsers : argparse._SubParsersAction
-        The CLI's subparsers (``parser.add_subparsers()``).
-
-    Returns
-    -------
-    argparse.ArgumentParser
-        The ``figures`` subparser.
-    """
-    p = subparsers.add_parser(
-        "figures", help="redraw every figure of the two-granule paper from the engine",
-        description="Redraw the figures of Rosas, Buceta and Lindenberg, 'Dynamics of Two "
-                    "Granules', from the event stepper, closed forms overlaid; writes "
-                    "OUT/paper_<name>.png and prints the time each figure takes.")
-    p.add_argument("--out", required=True,
-                   help="a new folder (created and marked), or one an earlier figures "
-                   "command wrote")
-    p.add_argument("--only", default=None,
-                   help=f"comma-separated subset of: {','.join(FIGURES)}")
-    p.add_argument("--grid", type=int, default=100,
-                   help="points per axis of the (eta1, eta2) maps (default 100)")
-    p.add_argument("--processes", type=int, default=2,
-                   help="worker processes for the (eta1, eta2) maps (default 2)")
-    return p
-
-
-def run_figures_command(args, announce=None) -> int:
-    """Run ``granular-chain figures``; returns the exit status.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        Parsed ``--out``, ``--only``, ``--grid``, ``--processes``.
-    announce : callable, optional
-        Called once the arguments and ``--out`` are accepted, before any figure.
-
-    Returns
-    -------
-    int
-        0 on success, 2 on a bad argument.
-    """
-    from ..cli.exit_codes import fail
-    from ..rundir import OutputError, claim_folder
-
-    only = [s.strip() for s in args.only.split(",") if s.strip()] if args.only else None
-    if args.grid < 2 or args.processes < 1:
-        return fail("--grid must be >= 2 and --processes >= 1")
-    unknown = [n for n in only or () if n not in FIGURES]
-    if unknown:
-        return fail(f"--only: unknown figure(s) {unknown}; choose from {list(FIGURES)}")
-    try:  # decided before any figure is drawn
-        claim = claim_folder(args.out, "figures", [f"paper_{n}.png" for n in only or FIGURES])
-    except OutputError as exc:
-        return fail(str(exc))
-    if announce is not None:
-        announce()
-    t = time.perf_counter()
-    try:
-        with claim:
-            make_figures(claim.folder, only=only, grid=args.grid, processes=args.processes)
-    except OutputError as exc:
-        return fail(str(exc))
-    print(f"total {time.perf_counter() - t:.2f} s")
-    return 0
-
-
-if __name__ == "__main__":  # pragma: no cover - convenience: python -m granular_chain.paper.figures
-    ap = argparse.ArgumentParser(prog="python -m granular_chain.paper.figures")
-    add_figures_parser(ap.add_subparsers(dest="command", required=True))
-    sys.exit(run_figures_command(ap.parse_args()))

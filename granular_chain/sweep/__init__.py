@@ -45,17 +45,5 @@ from .resume import read_results
 __all__ = [
     "Axis", "parse_grid", "parse_list", "grid_points", "set_path", "evaluate_point",
     "run_sweep", "SweepStats", "read_results", "plot_heatmap", "QUANTITIES",
-    "add_sweep_parser", "run_sweep_command", "SweepError", "PointOptions",
+    "SweepError", "PointOptions",
 ]
-
-#: The ``granular-chain sweep`` command lives in :mod:`granular_chain.cli.sweep`;
-#: its two functions are importable from here too (loaded on first use, as the CLI
-#: package imports this one).
-_COMMAND = {"add_sweep_parser": "add_parser", "run_sweep_command": "run"}
-
-
-def __getattr__(name: str):
-    if name in _COMMAND:
-        from ..cli import sweep as command
-        return getattr(command, _COMMAND[name])
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -14,6 +14,7 @@ from typing import Optional, Sequence
 
 from .._compile import share_compiling
 from ..extras import require
+from . import point
 from .grid import Axis, SweepError, coord_text, grid_points
 from .point import QUANTITIES, PointOptions, value_columns
 from .resume import open_results, scene_text_hash
@@ -122,9 +123,7 @@ def run_batch(scene_data, source, paths, batch, options):
     list of dict
         One row per point (:func:`evaluate_point`).
     """
-    from .. import sweep
-
-    return [sweep.evaluate_point(scene_data, source, paths, coords, options)
+    return [point.evaluate_point(scene_data, source, paths, coords, options)
             for coords in batch]
 
 

@@ -1,7 +1,7 @@
 """Writers: what a run leaves on disk. They see only a Result (and the scene as metadata).
 
 summary.py     summary.json (always written by ``granular-chain run``)
-trajectory.py  trajectory.h5: t, x, v, f, energy ledger, events; ``read_trajectory`` reads it back
+trajectory.py  trajectory.h5: t, x, v, f, energy ledger, events (read back by :mod:`..readback`)
 tables.py      energy.csv and events.csv
 vtk.py         run.pvd + vtk/frame_NNNNNN.vtp, a VTK time series for ParaView and pyvista
 plots.py       PNGs: space-time diagram, energy ledger, granule velocities, a rendered frame

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..extras import require
 
-__all__ = ["export_run", "add_export_parser", "run_export_command"]
+__all__ = ["export_run"]
 
 
 @contextlib.contextmanager
@@ -90,15 +90,3 @@ def export_run(result, model, out: Path, fmt: str) -> list[Path]:
         meshio.write(path, mesh)
         paths.append(path)
     return paths
-
-
-#: The ``granular-chain export`` command lives in :mod:`granular_chain.cli.export`;
-#: its two functions are importable from here too (loaded on first use).
-_COMMAND = {"add_export_parser": "add_parser", "run_export_command": "run"}
-
-
-def __getattr__(name: str):
-    if name in _COMMAND:
-        from ..cli import export as command
-        return getattr(command, _COMMAND[name])
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -33,6 +33,8 @@ import numpy as np
 
 from ..extras import missing, require
 from ..notices import PlotSkippedWarning, warn
+from ..result import run_model
+from .vtk import contact_overlap_force
 
 __all__ = ["write_plots", "plot_spacetime", "plot_energy", "plot_velocities", "render_frame",
            "default_granules", "frame_unavailable", "PLOT_DIR"]
@@ -282,9 +284,6 @@ def render_frame(result, path, scene, time: Optional[float] = None,
     """
     _prefer_egl()
     pv = require("pyvista", "granular_chain frame.png")
-
-    from ..readback import run_model
-    from .vtk import contact_overlap_force
 
     pv.OFF_SCREEN = True
     model = run_model(result, scene)

@@ -49,7 +49,6 @@ frames); :func:`write_trajectory` streams a finished
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Optional
 
@@ -57,109 +56,23 @@ import h5py
 import numba
 import numpy as np
 
-from ..codes import EVENT_KINDS
-from ..extras import require
-from ..result import TERMS_ADDED, ledger_balance
+from ..conventions import EVENT_FIELDS as _EVENT_FIELDS
+from ..conventions import FRAME_FIELDS, LEDGER_FIELDS
+from ..conventions import GRANULE_FIELDS as _GRANULE_FIELDS
+from ..conventions import LEDGER_TERMS as _LEDGER_TERMS
+from ..conventions import TIME_NAME as _TIME
+from ..conventions import cf_attrs as _attrs
+from ..conventions import event_columns as _event_columns
+from ..conventions import final_attrs, granule_values, root_attrs
+from ..result import ledger_balance, run_model
 
-__all__ = ["TrajectoryWriter", "write_trajectory", "read_trajectory", "read_h5",
-           "to_xarray", "event_kind_names", "FRAME_FIELDS", "LEDGER_FIELDS"]
+__all__ = ["TrajectoryWriter", "TrajectoryFrames", "write_trajectory", "FRAME_FIELDS",
+           "LEDGER_FIELDS"]
 
 # Values in one chunk of a (time, granule) array, at most: 512 KiB of float64, so
 # reading one frame reads little more than it (a chunk holds at least one frame).
 _CHUNK_VALUES = 2 ** 16
 _SERIES_ROWS = 512  # frames in one chunk of a (time,) array
-
-_UNITS = {  # CF / UDUNITS strings per kind of quantity
-    "physical": {"time": "s", "length": "m", "velocity": "m s-1", "force": "N",
-                 "energy": "J", "mass": "kg", "damping": "kg s-1", "": "1"},
-}
-_SCALED = "scaled, paper Appendix A"
-# The frames' time is elapsed time from the run's start, not a date: CF's time
-# coordinate (axis T) needs units "<unit> since <date>", which a scaled time in
-# units of "1" cannot have, so ``time`` is a plain coordinate with units s or 1.
-_TIME = "time since the start of the run"
-
-#: (time, granule) arrays: name -> (kind, long_name)
-FRAME_FIELDS = {
-    "x": ("length", "granule centre position"),
-    "v": ("velocity", "granule velocity"),
-    "f": ("force", "net contact force on the granule from its neighbours and the walls"),
-}
-#: (time,) ledger arrays: name -> long_name (the columns of energy.csv)
-LEDGER_FIELDS = {
-    "kinetic": "kinetic energy, sum of m v^2/2",
-    "potential": "elastic energy of the contacts",
-    "coulomb": "energy dissipated by kinetic (Coulomb) friction so far",
-    "viscous": "energy dissipated by hydrodynamic friction so far",
-    "contact_dissipated": "energy dissipated by the contacts' dashpots so far",
-    "wall_work": "work done on the chain by moving walls so far",
-    "body_work": "work done on the chain by body forces so far",
-    "stage_work": "energy put in by the velocity changes at stage starts so far",
-    "balance": "kinetic + potential + coulomb + viscous + contact_dissipated - wall_work "
-               "- body_work - stage_work - initial energy (integrator error)",
-}
-_LEDGER_TERMS = tuple(name for name in LEDGER_FIELDS if name != "balance")
-# (granule,) arrays of the model: name -> (Model attribute, kind, long_name)
-_GRANULE_FIELDS = {
-    "mass": ("mass", "mass", "granule mass"),
-    "radius": ("radius", "length", "granule radius"),
-    "friction_kinetic": ("eta", "force", "kinetic (Coulomb) friction force"),
-    "friction_static": ("eta_static", "force", "static friction threshold"),
-    "friction_viscous": ("gamma", "damping", "hydrodynamic friction coefficient"),
-}
-
-
-# The event log's variables (dimension ``event``): name -> (Event attribute, numpy
-# dtype, kind of unit, long name); written by the writer and by to_xarray alike.
-_EVENT_FIELDS = {
-    "event_time": ("t", np.float64, "time", "time of the event"),
-    "event_kind": ("kind", np.int8, "flag", "kind of event"),
-    "event_index": ("index", np.int64, "",
-                    "contact (-1 left wall, N-1 right wall) or granule index"),
-    "event_step": ("step", np.int64, "",
-                   "Verlet step at whose end the event was seen (-1: event stepper)"),
-}
-
-
-#: event_kind is a CF flag variable (CF section 3.5): the EventKind codes, named in
-#: flag_meanings: CF's encoding of a few named codes (the CF checker refuses the
-#: variable-length strings of earlier files, and classic netCDF has none).
-_EVENT_FLAGS = {"flag_values": np.arange(len(EVENT_KINDS), dtype=np.int8),
-                "flag_meanings": " ".join(EVENT_KINDS)}
-
-
-def _event_value(event, attr: str):
-    """One event's value of ``attr``; its kind as its EventKind code."""
-    value = getattr(event, attr)
-    return EVENT_KINDS.index(str(value)) if attr == "kind" else value
-
-
-def _event_columns(events) -> dict:
-    """name -> (values, kind, long name) of the event variables, one value an event."""
-    return {name: (np.array([_event_value(e, attr) for e in events], dtype=dtype), kind, text)
-            for name, (attr, dtype, kind, text) in _EVENT_FIELDS.items()}
-
-
-def event_kind_names(variable) -> list:
-    """The event kinds stored in an ``event_kind`` variable, as names.
-
-    Parameters
-    ----------
-    variable : h5py.Dataset
-        ``event_kind``: flag codes with ``flag_values`` and ``flag_meanings``, or
-        (files of earlier versions) variable-length strings.
-
-    Returns
-    -------
-    list of str
-        One name an event (``contact_close``, ``contact_open``, ``stop``, ``slip``).
-    """
-    if h5py.check_string_dtype(variable.dtype) is not None:
-        return [str(k) for k in variable.asstr()[...]]
-    meanings = str(variable.attrs["flag_meanings"]).split()
-    names = dict(zip((int(v) for v in variable.attrs["flag_values"]), meanings))
-    return [names[int(code)] for code in variable[...]]
-
 
 @numba.njit(nogil=True, cache=True)
 def _copy_frame(row, x_rows, v_rows, f_rows, x, v, f):
@@ -179,63 +92,6 @@ def _copy_frame(row, x_rows, v_rows, f_rows, x, v, f):
 def _doubles(a) -> np.ndarray:
     """``a`` as a contiguous float64 array (itself when it is one already)."""
     return np.ascontiguousarray(a, dtype=np.float64)
-
-
-def _attrs(units_system: str, kind: str, long_name: str) -> dict:
-    """CF ``units`` and ``long_name`` of a variable of this kind (a flag variable:
-    ``flag_values`` and ``flag_meanings`` instead of units)."""
-    if kind == "flag":
-        return {"long_name": long_name, **_EVENT_FLAGS}
-    if units_system == "physical" or not kind:
-        return {"units": _UNITS["physical"][kind], "long_name": long_name}
-    return {"units": "1", "long_name": f"{long_name} ({_SCALED})"}
-
-
-def _engine_version() -> str:
-    from .. import __version__
-    return __version__
-
-
-def root_attrs(scene) -> dict:
-    """Global attributes known before the run: conventions, engine, the scene as YAML."""
-    import yaml
-
-    attrs = {"Conventions": "CF-1.8", "source": f"granular_chain {_engine_version()}",
-             "engine": "granular_chain", "engine_version": _engine_version(),
-             "units_system": scene.units if scene is not None else "scaled"}
-    if scene is not None:
-        attrs["title"] = f"granular_chain run of scene {scene.name}"
-        attrs["scene_name"] = scene.name
-        dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)  # libyaml's: the same text, faster
-        attrs["scene"] = yaml.dump(scene.model_dump(mode="json"), Dumper=dumper, sort_keys=False)
-    return attrs
-
-
-def _plain(value):
-    """JSON form of what json cannot write itself: NumPy scalars and arrays, else text."""
-    return value.tolist() if hasattr(value, "tolist") else str(value)
-
-
-def final_attrs(result) -> dict:
-    """Global attributes known when the run has ended (status, cost, counts)."""
-    attrs = {"status": str(result.status), "status_code": int(result.status),
-             "success": np.int8(result.success), "message": result.message,
-             "stepper": result.stepper, "steps": np.int64(result.steps),
-             "wall_time_s": float(result.wall_time), "t_final": float(result.t_final),
-             "energy_initial": float(result.energy.initial),
-             "event_counts": json.dumps({k: int(n) for k, n in result.event_counts.items()}),
-             "info": json.dumps(result.info, default=_plain)}
-    if result.dt is not None:
-        attrs["dt"] = float(result.dt)
-    return attrs
-
-
-def granule_values(model) -> dict:
-    """The per-granule arrays of the run's Model stored with it, each of shape (N,)
-    (empty without a Model)."""
-    if model is None:
-        return {}
-    return {name: getattr(model, attr) for name, (attr, _, _) in _GRANULE_FIELDS.items()}
 
 
 class _Block:
@@ -583,8 +439,6 @@ def write_trajectory(result, folder: Path, scene=None) -> Path:
     pathlib.Path
         ``folder/trajectory.h5``.
     """
-    from ..readback import run_model
-
     led = result.energy
     with TrajectoryWriter(folder, scene, result.x.shape[1],
                           model=run_model(result, scene)) as w:
@@ -595,143 +449,3 @@ def write_trajectory(result, folder: Path, scene=None) -> Path:
                           led.stage_work[i])
         w.close(result)
     return w.path
-
-
-def _scene_from_attr(h5, path):
-    """The scene stored in the file (YAML; JSON in older files, which YAML reads too)."""
-    from ..scene import parse_yaml_value, scene_from_dict
-
-    if "scene" not in h5.attrs:
-        return None
-    return scene_from_dict(parse_yaml_value(str(h5.attrs["scene"])), source=str(path),
-                           stored=True)
-
-
-def read_h5(path, summary: Optional[dict] = None):
-    """Read a trajectory.h5 into ``(Result, Scene or None)``, every array as written.
-
-    ``summary`` (summary.json's content) supplies what files of the earlier
-    layout (``t``, ``energy/*``, ``events/*``) did not hold: final state, steps,
-    wall time and event counts.
-
-    Parameters
-    ----------
-    path : path
-        The trajectory.h5 file.
-    summary : dict, optional
-        summary.json's content (needed only for files of the earlier layout).
-
-    Returns
-    -------
-    tuple
-        ``(Result, Scene or None)``, in the units the file was written in.
-
-    Raises
-    ------
-    ValueError
-        When the file has no status (the run did not finish writing it).
-    """
-    from ..readback import summary_info
-    from ..result import EnergyLedger, Event, Result, Status
-
-    summary = summary or {}
-    with h5py.File(path, "r") as h5:
-        a = h5.attrs
-        if "status" not in a:
-            raise ValueError(f"{path}: the run did not finish writing this file (no status)")
-        legacy = "time" not in h5
-        t = h5["t" if legacy else "time"][...]
-        x, v, f = (h5[name][...] for name in FRAME_FIELDS)
-        g = h5["energy"] if legacy else h5
-        initial = float(g.attrs["initial"] if legacy else a["energy_initial"])
-        energy = EnergyLedger(*(g[name][...] for name in ("kinetic", "potential", "coulomb",
-                                                          "viscous")), initial=initial,
-                              **{name: g[name][...] for name in TERMS_ADDED if name in g})
-        if legacy:
-            ev = h5["events"] if "events" in h5 else None
-            cols = (ev["t"][...], ev["kind"][...], ev["index"][...]) if ev else ((), (), ())
-        else:
-            cols = (h5["event_time"][...], event_kind_names(h5["event_kind"]),
-                    h5["event_index"][...])
-        steps = h5["event_step"][...] if "event_step" in h5 else np.full(len(cols[0]), -1)
-        events = [Event(float(s), k.decode() if isinstance(k, bytes) else str(k), int(i), int(n))
-                  for s, k, i, n in zip(*cols, steps)]
-        fin = {**summary, "info": summary_info(summary)} if legacy else {
-            "x_final": h5["x_final"][...], "v_final": h5["v_final"][...],
-            "t_final": a["t_final"], "steps": a["steps"], "wall_time_s": a["wall_time_s"],
-            "event_counts": json.loads(a["event_counts"]), "info": json.loads(a["info"])}
-        result = Result(
-            t=t, x=x, v=v, f=f, energy=energy, status=Status[str(a["status"]).upper()],
-            message=str(a["message"]), steps=int(fin.get("steps", 0)),
-            wall_time=float(fin.get("wall_time_s", 0.0)), stepper=str(a["stepper"]),
-            dt=float(a["dt"]) if "dt" in a else None,
-            t_final=float(fin.get("t_final", t[-1] if t.size else 0.0)),
-            x_final=np.asarray(fin.get("x_final", x[-1] if t.size else []), dtype=np.float64),
-            v_final=np.asarray(fin.get("v_final", v[-1] if t.size else []), dtype=np.float64),
-            events=events, event_counts=dict(fin.get("event_counts", {})),
-            info=dict(fin.get("info", {})))
-        scene = _scene_from_attr(h5, path)
-    return result, scene
-
-
-def read_trajectory(folder):
-    """Read a run folder back: ``(Result, Scene or None)`` (see :func:`granular_chain.read_run`).
-
-    Parameters
-    ----------
-    folder : path
-        A run's output folder.
-
-    Returns
-    -------
-    tuple
-        ``(Result, Scene or None)``, scene units.
-    """
-    from ..readback import read_run
-
-    result = read_run(folder)
-    return result, result.scene
-
-
-def to_xarray(result, scene=None):
-    """The run as an ``xarray.Dataset`` with the layout of trajectory.h5 (same names,
-    dimensions, units and attributes).
-
-    Parameters
-    ----------
-    result : Result
-        A finished run, scene units.
-    scene : Scene, optional
-        The run's scene: sets the units attributes (scaled without it) and the
-        chain constants when ``result`` has no Model.
-
-    Returns
-    -------
-    xarray.Dataset
-        Frames (time, granule), ledger (time), per-granule constants and final
-        state (granule), events (event); scene units.
-    """
-    xr = require("xarray", "granular_chain to_xarray")
-
-    units = scene.units if scene is not None else "scaled"
-    coords = {"time": ("time", result.t, _attrs(units, "time", _TIME)),
-              "granule": ("granule", np.arange(result.x.shape[1], dtype=np.int64),
-                          _attrs(units, "", "granule index, 0 at the left end")),
-              "event": ("event", np.arange(len(result.events), dtype=np.int64),
-                        _attrs(units, "", "event number"))}
-    data = {name: (("time", "granule"), getattr(result, name), _attrs(units, kind, text))
-            for name, (kind, text) in FRAME_FIELDS.items()}
-    led = result.energy
-    data.update({name: ("time", getattr(led, name), _attrs(units, "energy", text))
-                 for name, text in LEDGER_FIELDS.items()})
-    from ..readback import run_model
-
-    for name, values in granule_values(run_model(result, scene)).items():
-        _, kind, text = _GRANULE_FIELDS[name]
-        data[name] = ("granule", values, _attrs(units, kind, text))
-    data["x_final"] = ("granule", result.x_final, _attrs(units, "length", "final granule position"))
-    data["v_final"] = ("granule", result.v_final,
-                       _attrs(units, "velocity", "final granule velocity"))
-    for name, (values, kind, text) in _event_columns(result.events).items():
-        data[name] = ("event", values, _attrs(units, kind, text))
-    return xr.Dataset(data, coords=coords, attrs={**root_attrs(scene), **final_attrs(result)})

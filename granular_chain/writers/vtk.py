@@ -64,6 +64,7 @@ from ..extras import require
 from ..laws.contact import LAW_POWER, contact_force
 from ..laws.damping import DAMPING_NONE, damped_contact_force
 from ..laws.wall_motion import wall_displacement, wall_speed
+from ..result import run_model
 
 __all__ = ["contact_overlap_force", "ContactForces", "WallContact", "wall_contacts",
            "Dissipation", "dissipation_of",
@@ -471,7 +472,7 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
         Output folder (``run.pvd`` and ``vtk/`` are created in it).
     scene : Scene
         The run's scene: only for a Result without its chain constants
-        (:func:`granular_chain.readback.run_model`).
+        (:func:`granular_chain.result.run_model`).
     compression : {"zlib", "lz4", "lzma", None}
         Compression of the binary appended data.
     progress : bool
@@ -486,8 +487,6 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
     Path
         ``folder/run.pvd``.
     """
-    from ..readback import run_model
-
     model = run_model(result, scene)
     frames = range(result.t.size)
     if progress:

@@ -23,13 +23,15 @@ from typing import Optional
 import numpy as np
 
 from ...codes import Pause, Status
+from ...errors import SimulationError
 from ...frames import Frame, FrameLog
 from ...interrupts import CHUNK_SECONDS, stop_signals
 from ...ledger import ledger_verdict
 from ...model import Model
 from ...progress import progress_bar
 from ...result import EnergyLedger, Event, Result, ledger_balance
-from ...units import internal_scales, scaled_model, speed_scale, unit_factors
+from ...units import (internal_scales, scaled_model, scaled_parameters, speed_scale,
+                      unit_factors)
 from ..opening import opening_floor, resolved_opening
 from .options import EventOptions, event_options
 from .output import record_final_frame
@@ -87,14 +89,12 @@ def check_exponents(model: Model) -> None:
         n.append(float(w[5]))
     high = [x for x in n if x > MAX_EXPONENT]
     if high:
-        from ...simulate import SimulationError
         raise SimulationError(
             f"contacts.exponent: the event stepper accepts exponents n <= {MAX_EXPONENT:g}; "
             f"got n = {max(high):g}, for which its energy ledger misses the promised "
             f"tolerance (docs/events.md); use run.stepper: verlet")
     low = [x for x in n if x < MIN_EXPONENT]
     if low:
-        from ...simulate import SimulationError
         raise SimulationError(
             f"contacts.exponent: the event stepper accepts exponents n >= {MIN_EXPONENT} "
             f"(n = 2 exactly, others to run.rtol); got n = {min(low):g}, for which its energy "
@@ -184,7 +184,6 @@ def simulate_events(options, model: Model, log: FrameLog | None = None, *, resum
     # the ledger in the scene's units (rounded again by the scaling): judged again
     r.status, r.message = ledger_verdict(r, r.info["event_stepper"]["ledger_tolerance"])
     if model.units == "physical":
-        from ...units import scaled_parameters
         r.info["scaled"] = scaled_parameters(model)
     if log is not None:
         log.close(r)
