@@ -21,9 +21,11 @@ import numpy as np
 from ._compile import specialised
 from .distributions import draw, is_recipe
 from .forces import total_potential
+from .initial_state import read_state
 from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
 from .laws.damping import DAMPING_LINEAR, DAMPING_NONE, DAMPING_VISCOELASTIC
 from .laws.wall_motion import WALL_FIXED, WALL_PULSE, WALL_SINE, WALL_VELOCITY
+from .restitution import choose_damping, contact_time_scale, scaled_damping, solve_damping
 from .scene import Scene
 
 __all__ = ["Features", "Model", "build_model", "friction_features", "scale_problem",
@@ -370,7 +372,6 @@ def build_model(scene: Scene) -> Model:
     radius = _per(g.radius, N)
     if g.state is not None:  # positions and velocities from a file, exactly
         if g._x0 is None:  # a stored scene read back: read the file now
-            from .initial_state import read_state
             g._x0, g._v0 = read_state(g.state.file, g.state.frame, N)
         x0, v0 = g._x0.copy(), g._v0.copy()
         gaps = np.diff(x0) - radius[:-1] - radius[1:]
@@ -449,8 +450,6 @@ def _dashpots(scene: Scene, mass: np.ndarray, k: np.ndarray, n: np.ndarray, wall
     if spec.model != "restitution":
         code = DAMPING_LINEAR if spec.model == "linear" else DAMPING_VISCOELASTIC
         return code, np.full(max(N - 1, 0), float(spec.coefficient)), np.full(2, float(spec.coefficient))
-    from .restitution import (choose_damping, contact_time_scale, scaled_damping,
-                              solve_damping)
     tensile = bool(scene.contacts.tensile)
     mu = mass[:-1] * mass[1:] / (mass[:-1] + mass[1:])
     rows = [(float(kk), float(nn), float(m)) for kk, nn, m in zip(k, n, mu)]

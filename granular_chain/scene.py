@@ -33,6 +33,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from .distributions import Distribution, check_draw, draw, is_recipe
+from .initial_state import StateFileError, read_state
 
 __all__ = [
     "Scene",
@@ -287,7 +288,6 @@ class Granules(_Strict):
         if given:
             raise _FieldProblem("granules.state", f"sets positions and velocities: leave out "
                                 f"granules.{' and granules.'.join(sorted(given))}")
-        from .initial_state import StateFileError, read_state
         try:
             self._x0, self._v0 = read_state(self.state.file, self.state.frame, self.count)
         except StateFileError as exc:

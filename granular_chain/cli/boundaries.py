@@ -13,7 +13,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..budget import _gb, available_memory
+from .. import budget
 from ..extras import check
 from ..interrupts import Stopped
 from ..rundir import OutputError, claim_folder
@@ -81,12 +81,12 @@ def check_grid(grid: int, available: Optional[int] = None) -> None:
         One line with the estimate (memory, and time at SCAN_POINT_SECONDS a point).
     """
     need = grid * SCAN_POINT_BYTES
-    available = available_memory() if available is None else available
+    available = budget.available_memory() if available is None else available
     if need > available:
         hours = grid * SCAN_POINT_SECONDS / 3600
         raise _BadInput(f"--grid {grid}: the scan keeps every point until it is refined, "
-                        f"about {_gb(need)} ({SCAN_POINT_BYTES // 1000} kB a point; and at "
-                        f"least {hours:.3g} hours), but {_gb(available)} of memory is "
+                        f"about {budget._gb(need)} ({SCAN_POINT_BYTES // 1000} kB a point; and at "
+                        f"least {hours:.3g} hours), but {budget._gb(available)} of memory is "
                         f"available; use at most --grid {max(2, available // SCAN_POINT_BYTES)}")
 
 

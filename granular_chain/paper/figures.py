@@ -50,6 +50,7 @@ from .. import paper
 from ..codes import Status
 from ..extras import require
 from ..plotting import label_contours, signed
+from ..rundir import write_atomic
 from ..two_granules import OUTCOMES, Outcome, collide, collision_map
 
 __all__ = [
@@ -161,7 +162,6 @@ def _plt():
 
 
 def _save(fig, out: Path, name: str) -> Path:
-    from ..rundir import write_atomic
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = write_atomic(out / f"paper_{name}.png",

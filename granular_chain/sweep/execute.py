@@ -14,6 +14,8 @@ from typing import Optional, Sequence
 
 from .._compile import share_compiling
 from ..extras import require
+from ..interrupts import stop_signals
+from ..scene import SceneError, apply_overrides, read_scene_data
 from . import point
 from .grid import Axis, SweepError, coord_text, grid_points
 from .point import QUANTITIES, PointOptions, value_columns
@@ -198,8 +200,6 @@ def run_sweep(scene_path, axes: Sequence[Axis], *, out_dir, fixed: Sequence[str]
 
 def _read_scene(scene_path: Path, fixed: Sequence[str]) -> tuple[dict, str]:
     """The scene file's mapping with the fixed overrides applied, and its text."""
-    from ..scene import SceneError, apply_overrides, read_scene_data
-
     try:
         data = read_scene_data(scene_path)
         text = scene_path.read_text()
@@ -322,8 +322,6 @@ def _run_serial(batches: list, task: tuple, options: PointOptions, take) -> int:
     SIGTERM or SIGHUP ends the point being run within a compiled chunk (its row,
     interrupted, is dropped: it is run again on resume) and the sweep after it.
     Returns the signal's number (0: none)."""
-    from ..interrupts import stop_signals
-
     data, source, paths = task
     with stop_signals() as stop:
         for batch in batches:

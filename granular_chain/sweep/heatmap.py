@@ -10,6 +10,7 @@ import numpy as np
 
 from ..extras import require
 from ..plotting import label_contours, tex_name
+from ..rundir import write_atomic
 from .grid import SweepError
 from .resume import read_results
 
@@ -115,7 +116,6 @@ def plot_heatmap(results, x: str, y: str, quantity: str, path, *, mask: Optional
     ax.set_ylabel(y)
     ax.set_title(title or (quantity + (f"  (where {mask})" if mask else "")), fontsize=8)
     fig.tight_layout()
-    from ..rundir import write_atomic
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     write_atomic(path, fig.savefig)

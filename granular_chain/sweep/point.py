@@ -10,7 +10,11 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .. import diagnostics as dg
 from ..notices import OverlapWarning, TimeStepWarning
+from ..scene import SceneError, scene_from_dict, set_path
+from ..simulate import SimulationError, simulate
+from ..two_granules import classify
 from .grid import SweepError, coord_text
 
 __all__ = ["QUANTITIES", "PointOptions", "evaluate_point", "value_columns"]
@@ -102,9 +106,6 @@ def evaluate_point(scene_data: dict, source: str, paths: Sequence[str], coords: 
     dict
         Column -> value: the coordinates, :data:`QUANTITIES` and the ``v_final[g]`` columns.
     """
-    from ..scene import SceneError, scene_from_dict, set_path
-    from ..simulate import SimulationError, simulate
-
     start = time.perf_counter()
     row: dict[str, Any] = {p: coord_text(c) for p, c in zip(paths, coords)}
     data = copy.deepcopy(scene_data)
@@ -133,8 +134,6 @@ def evaluate_point(scene_data: dict, source: str, paths: Sequence[str], coords: 
 
 def _reduce(result, options: PointOptions, row: dict) -> None:
     """The quantities of one finished run, added to ``row``."""
-    from .. import diagnostics as dg
-
     model = result.model
     N = model.count
     e = result.energy
@@ -162,7 +161,6 @@ def _reduce(result, options: PointOptions, row: dict) -> None:
         except ValueError:
             pass
     if N == 2 and result.stepper is not None:
-        from ..two_granules import classify
         try:
             c = classify(result, 0.0 if result.dt is None else result.dt ** 2)
             row.update(v1=c.v1, v2=c.v2, outcome=c.outcome.name, t_separation=c.t_separation,

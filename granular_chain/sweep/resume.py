@@ -13,6 +13,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..rundir import OutputError, claim_folder, write_text_atomic
 from .grid import Axis, SweepError
 
 __all__ = ["open_results", "read_results", "scene_text_hash", "read_done"]
@@ -63,7 +64,6 @@ def open_results(out_dir: Path, meta: dict, axes: Sequence[Axis], header: list[s
     (Path, set of tuple)
         results.csv and the coordinates (as text) already in it.
     """
-    from ..rundir import OutputError, claim_folder, write_text_atomic
     try:
         claim = claim_folder(out_dir, "sweep", ["results.csv", "sweep.json"])
     except OutputError as exc:

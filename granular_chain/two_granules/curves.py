@@ -19,6 +19,8 @@ import numpy as np
 from .._compile import share_compiling
 from ..extras import require
 from ..plotting import tex_name
+from ..rundir import write_atomic, write_text_atomic
+from . import maps
 from .boundaries import PARAMS, _Problem, _refine
 from .outcomes import OUTCOMES
 
@@ -394,7 +396,6 @@ def write_curves(curves, folder, stem: str = "boundaries") -> list:
     for i, c in enumerate(curves):
         for p, nv in zip(c.points, c.normals):
             lines.append(f"{i},{p[0]!r},{p[1]!r},{nv[0]!r},{nv[1]!r},{c.below},{c.above}")
-    from ..rundir import write_text_atomic
     write_text_atomic(csv_path, "\n".join(lines) + "\n")
     write_text_atomic(json_path, json.dumps({"curves": [c.to_dict() for c in curves]},
                                             indent=1) + "\n")
@@ -429,7 +430,6 @@ def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str
     plt = require("matplotlib.pyplot", "granular_chain boundary curves")
     ListedColormap = require("matplotlib.colors", "granular_chain boundary curves").ListedColormap
 
-    from .maps import collision_map
     xn, yn = curves[0].plane
     v = _Problem(xn, fixed).values
     x = np.linspace(box[0][0], box[0][1], m)
@@ -439,7 +439,8 @@ def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str
     for name, grid in ((xn, X), (yn, Y)):
         for key in ((name + "1", name + "2") if name in ("eta", "gamma") else (name,)):
             args[key] = grid
-    cm = collision_map(args["eta1"], args["eta2"], n=v["n"], gamma=(args["gamma1"], args["gamma2"]))
+    cm = maps.collision_map(args["eta1"], args["eta2"], n=v["n"],
+                            gamma=(args["gamma1"], args["gamma2"]))
     colours = ["#9ecae1", "#a1d99b", "#fdae6b", "#dadaeb", "#d9d9d9", "#fcbba1"]
     fig, ax = plt.subplots(figsize=(6.4, 5.6))
     ax.pcolormesh(x, y, cm.outcome, cmap=ListedColormap(colours), vmin=-0.5, vmax=5.5,
@@ -456,7 +457,6 @@ def plot_curves(curves, path, box, fixed=None, m: int = 200, title: Optional[str
     ax.set_ylabel(tex_name(yn))
     ax.set_title(title or f"outcome boundaries, $n = {v['n']:g}$")
     fig.tight_layout()
-    from ..rundir import write_atomic
     write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
     return path

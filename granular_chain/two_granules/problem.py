@@ -21,6 +21,7 @@ import numpy as np
 
 from ..codes import Status
 from ..model import build_model, friction_features
+from ..restitution import linear_dashpot
 from ..result import Result
 from ..scene import scene_from_dict
 from ..simulate import simulate
@@ -216,8 +217,6 @@ def _never_opens(n, eta, gamma, damping, tensile) -> bool:
     to roundoff after a few tens of relaxation times and may change sign there; an
     opening found then is roundoff, not the end of the collision.
     """
-    from ..restitution import linear_dashpot  # (mpmath and scipy: only when asked)
-
     frictionless = not any(float(a) for a in (*eta, *gamma))
     if not (tensile and float(n) == 2.0 and frictionless
             and damping.get("model") == "linear" and "coefficient" in damping):

@@ -19,6 +19,7 @@ from typing import Optional
 import numpy as np
 
 from ..progress import echo
+from .tables import keep_lines
 
 __all__ = ["ThermoLog", "COLUMNS", "thermo_every"]
 
@@ -79,7 +80,6 @@ class ThermoLog:
         self.last_step = None
         self._fh = self._csv = None
         if path is not None and resume_lines is not None:  # a run restarted from a checkpoint
-            from .tables import keep_lines
             keep_lines(path, 1 + resume_lines)
             self._fh = open(path, "a", newline="")
             self._csv = csv.writer(self._fh)

@@ -10,6 +10,7 @@ from ...codes import EVENT_KINDS, Status
 from ...ledger import ledger_verdict
 from ...model import Model
 from ...result import OVERLAP_ADVICE, EnergyLedger, Event, Result
+from ...units import scaled_parameters
 from ..opening import roundoff_note
 from .kernel import ZENO_BATCHES
 from .pack import Packed
@@ -71,7 +72,6 @@ def build_result(packed: Packed, code, wall, model: Model, tscale: float, run=No
                               "event_batches": int(clock.batches),
                               "ledger_tolerance": tol}}
     if model.units == "physical":
-        from ...units import scaled_parameters
         info["scaled"] = scaled_parameters(model)
     if run is None:
         energy = EnergyLedger(kinetic=fr_e[:nfr, 0].copy(), potential=fr_e[:nfr, 1].copy(),

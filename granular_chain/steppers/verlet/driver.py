@@ -35,7 +35,7 @@ from ...laws.damping import DAMPING_LINEAR
 from ...laws.friction import drift_tables
 from ...model import Model
 from ...progress import progress_bar
-from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Result, ledger_balance
+from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Event, Result, ledger_balance
 from ...units import scaled_parameters
 from ..opening import opening_floor, resolved_opening, roundoff_note
 from .event_log import EventLog, new_event_log
@@ -729,7 +729,6 @@ class VerletRun:
                          if f"first_{name}" in state}, initial=self.e0)
         self.log.resume(int(state["frames"]), float(state["max_error"]), first)
         if self.event_log is not None:
-            from ...result import Event
             times = state["events_t"].tolist()
             steps = state["events_step"].tolist() if "events_step" in state else \
                 [-1] * len(times)  # (a checkpoint written without the events' steps)

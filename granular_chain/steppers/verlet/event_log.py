@@ -16,9 +16,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ...codes import EVENT_KINDS, EventKind
+from ...codes import EVENT_KINDS, EventKind, Pause
 from ...forces import left_wall_overlap, right_wall_overlap
 from ...laws.friction import coulomb_kick
+from ...result import Event
 from .records import Call, EventBuffers
 
 __all__ = ["EventLog", "new_event_log", "log_capacity"]
@@ -192,8 +193,6 @@ class EventLog:
         tuple of int
             ``(steps taken, code)``, code a :class:`granular_chain.codes.Pause`.
         """
-        from ...codes import Pause
-
         taken, code = call(control)
         self._drain(done, taken)
         while code == Pause.LOG_FULL:
@@ -203,7 +202,6 @@ class EventLog:
         return taken, code
 
     def _drain(self, done: int, taken: int) -> None:
-        from ...result import Event
 
         q = int(self.buffers.fill[0])
         s = np.minimum(self.buffers.step[:q], taken) + done
@@ -244,8 +242,6 @@ class EventLog:
         list of Event
             Every event logged so far (times in the model's units).
         """
-        from ...result import Event
-
         self.events.extend(Event(*e) for e in sorted(self._pending, key=lambda e: e[2]))
         self._pending = []
         return self.events
