@@ -586,7 +586,7 @@ class Run(_Strict):
 
     stepper: Literal["verlet", "event"] = Field("verlet", description="Time stepper.")
     dt: Optional[Positive] = Field(
-        None, description="Verlet time step; default 1/100 of the shortest contact period.")
+        None, description="Verlet time step; default 1/200 of the shortest contact period.")
     t_end: Positive = Field(10.0, description="Stop at this time at the latest.")
     stop: Union[Literal["t_end", "separation", "rest"], list[Literal["separation", "rest"]]] = Field(
         "t_end",
@@ -855,12 +855,6 @@ class _FieldProblem(ValueError):
     def __init__(self, path: str, problem: str):
         self.path, self.problem = path, problem
         super().__init__(f"{path}: {problem}")
-
-
-def _expand(value, n: int) -> list[float]:
-    if is_recipe(value):
-        return draw(value, n).tolist()
-    return list(value) if isinstance(value, list) else [value] * n
 
 
 def _known_fields(model: type[BaseModel], loc: tuple) -> list[str]:

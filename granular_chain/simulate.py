@@ -216,7 +216,7 @@ def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, che
 
 class NeighbourWatch:
     """A frame writer that remembers the first frame where granules i and i+2
-    overlap (see :func:`next_neighbour_overlap`): one compiled pass over the
+    overlap (:func:`_overlap_warning`): one compiled pass over the
     frame's positions, about 2 µs for 10^4 granules."""
 
     def __init__(self, radius: np.ndarray):
@@ -269,34 +269,6 @@ def _overlap_warning(x: np.ndarray, reach: np.ndarray, t: float) -> str:
             f"granule {i + 1}'s diameter. The model has nearest-neighbour contacts "
             f"only, so it ignores that contact (a 3D DEM code would not): raise "
             f"contacts.stiffness or lower the velocities if it matters")
-
-
-def next_neighbour_overlap(t, x, radius) -> str:
-    """Warn when granules i and i+2 overlapped at some frame, or ''.
-
-    The model has contacts between neighbours i, i+1 only (as the paper's chain).
-    Once the overlaps of contacts i and i+1 together exceed granule i+1's
-    diameter, the spheres i and i+2 overlap too; a 3D DEM code (LAMMPS, checked:
-    benchmarks/results/lammps.md) counts that contact and this model does not,
-    so from then on the two disagree. Not an error (scaled scenes, such as the
-    benchmark chain struck at v = 1 with k = 1, reach it by design); checked at
-    the recorded frames only.
-
-    Parameters
-    ----------
-    t : ndarray, shape (F,)
-        Frame times.
-    x : ndarray, shape (F, N)
-        Centre positions at the frames.
-    radius : ndarray, shape (N,)
-        Radii.
-    """
-    reach = _reach(radius)
-    for q in range(x.shape[0]):  # frame by frame: stops at the first
-        warning = _overlap_warning(x[q], reach, t[q])
-        if warning:
-            return warning
-    return ""
 
 
 def _simulate_verlet(scene: Scene, model: Model, progress: Optional[bool],

@@ -5,7 +5,7 @@ truncated below 1e-17, time carried as a double-double), so the paper's closed
 forms must hold to a few hundred ulps: the bound 1e-13 leaves a factor ~50 over
 the worst error measured on these sweeps (docs/events.md). Near-critical
 damping is ill-conditioned (secular (a + b t) e^(-g t/2) growth of rounding),
-so the two-granule modes are evaluated in closed form (events_modal.py), and
+so the two-granule modes are evaluated in closed form (steppers/events/modal_n2.py), and
 the near-critical cases are tested separately against 50-digit mpmath.
 """
 

@@ -17,7 +17,6 @@ Modules, in the order data flows through them:
 The method and its error control are described in :mod:`.kernel` and docs/events.md.
 """
 
-from ...units import internal_scales as _scales  # noqa: F401  (two_granules)
 from .batch import POINT_BUDGET, BatchOutput, EventBatch
 from .driver import (CHECKPOINT_FORMAT, FIRST_BUDGET, MAX_EXPONENT, MIN_EXPONENT, EventRun,
                      check_exponents, checkpoint_state, next_budget, simulate_events)

@@ -62,7 +62,7 @@ def forced_records(model: Model, state, stop_mode: int):
     state : State
         The kernel's state (:class:`.records.State`); ``state.f`` is set here.
     stop_mode : int
-        The run's stop condition (:class:`granular_chain.codes.StopMode`).
+        The run's stop condition (the bits of :class:`.records.Features`' ``stop_mode``).
 
     Returns
     -------
