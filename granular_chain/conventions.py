@@ -87,7 +87,18 @@ def _event_value(event, attr: str):
 
 
 def event_columns(events) -> dict:
-    """name -> (values, kind, long name) of the event variables, one value an event."""
+    """The event log's variables, one value an event.
+
+    Parameters
+    ----------
+    events : sequence of Event
+        The run's event log.
+
+    Returns
+    -------
+    dict
+        Variable name -> (values of shape (events,), kind of unit, long name).
+    """
     return {name: (np.array([_event_value(e, attr) for e in events], dtype=dtype), kind, text)
             for name, (attr, dtype, kind, text) in EVENT_FIELDS.items()}
 
@@ -116,7 +127,23 @@ def event_kind_names(variable) -> list:
 
 def cf_attrs(units_system: str, kind: str, long_name: str) -> dict:
     """CF ``units`` and ``long_name`` of a variable of this kind (a flag variable:
-    ``flag_values`` and ``flag_meanings`` instead of units)."""
+    ``flag_values`` and ``flag_meanings`` instead of units).
+
+    Parameters
+    ----------
+    units_system : str
+        ``"physical"`` (SI) or ``"scaled"`` (CF's dimensionless ``"1"``).
+    kind : str
+        Kind of quantity (``"time"``, ``"length"``, ``"velocity"``, ``"force"``,
+        ``"energy"``, ``"mass"``, ``"damping"``, ``"flag"``, or ``""`` for a count).
+    long_name : str
+        What the variable is.
+
+    Returns
+    -------
+    dict
+        The variable's attributes.
+    """
     if kind == "flag":
         return {"long_name": long_name, **EVENT_FLAGS}
     if units_system == "physical" or not kind:
@@ -125,7 +152,18 @@ def cf_attrs(units_system: str, kind: str, long_name: str) -> dict:
 
 
 def root_attrs(scene) -> dict:
-    """Global attributes known before the run: conventions, engine, the scene as YAML."""
+    """Global attributes known before the run: conventions, engine, the scene as YAML.
+
+    Parameters
+    ----------
+    scene : Scene or None
+        The run's scene (None: scaled units, no scene stored).
+
+    Returns
+    -------
+    dict
+        Attribute name -> value.
+    """
     attrs = {"Conventions": "CF-1.8", "source": f"granular_chain {__version__}",
              "engine": "granular_chain", "engine_version": __version__,
              "units_system": scene.units if scene is not None else "scaled"}
@@ -143,7 +181,18 @@ def _plain(value):
 
 
 def final_attrs(result) -> dict:
-    """Global attributes known when the run has ended (status, cost, counts)."""
+    """Global attributes known when the run has ended (status, cost, counts).
+
+    Parameters
+    ----------
+    result : Result
+        The finished run.
+
+    Returns
+    -------
+    dict
+        Attribute name -> value.
+    """
     attrs = {"status": str(result.status), "status_code": int(result.status),
              "success": np.int8(result.success), "message": result.message,
              "stepper": result.stepper, "steps": np.int64(result.steps),
@@ -157,8 +206,18 @@ def final_attrs(result) -> dict:
 
 
 def granule_values(model) -> dict:
-    """The per-granule arrays of the run's Model stored with it, each of shape (N,)
-    (empty without a Model)."""
+    """The per-granule arrays of the run's Model stored with it.
+
+    Parameters
+    ----------
+    model : Model or None
+        The run's chain constants.
+
+    Returns
+    -------
+    dict
+        Variable name -> array of shape (N,) (empty without a Model).
+    """
     if model is None:
         return {}
     return {name: getattr(model, attr) for name, (attr, _, _) in GRANULE_FIELDS.items()}

@@ -400,17 +400,31 @@ class TrajectoryFrames:
         self._open = True
 
     def flush(self) -> None:
+        """Put the frames written so far on disk (before a checkpoint)."""
         self.writer.flush()
 
     def write_frame(self, frame) -> None:
+        """Append one frame.
+
+        Parameters
+        ----------
+        frame : Frame
+            Time, positions, velocities, forces and ledger terms (scene units).
+        """
         self.writer.write_frame(frame.t, frame.x, frame.v, frame.f, frame.kinetic,
                                 frame.potential, frame.coulomb, frame.viscous,
                                 frame.contact_dissipated, frame.wall_work, frame.body_work,
                                 frame.stage_work, frame.stage)
 
     def close(self, result=None) -> None:
-        """With the run's Result: the final state, events and status; without
-        (the run raised): the frames so far, no status."""
+        """Close the file: with the run's Result, its final state, events and status;
+        without (the run raised), the frames so far and no status.
+
+        Parameters
+        ----------
+        result : Result, optional
+            The finished run.
+        """
         if not self._open:
             return
         self._open = False
