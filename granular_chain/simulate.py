@@ -76,7 +76,7 @@ def preflight(scene: Scene) -> Model:
 def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
              writers: Sequence = (), keep_frames: bool = True, thermo=None,
              checkpoint=None, resume: Optional[dict] = None,
-             end_checkpoint: bool = False) -> Result:
+             end_checkpoint: bool = False, model: Optional[Model] = None) -> Result:
     """Run a scene and return its :class:`Result`.
 
     Parameters
@@ -111,6 +111,10 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         Verlet: also give ``checkpoint`` the state at the last frame of the cadence
         before the last whole step, which a run to a later t_end passes through
         (the event stepper ignores it).
+    model : Model, optional
+        The scene's Model as :func:`preflight` returned it, for a caller that has
+        checked the scene already (the command line): it is not built, nor checked,
+        again. Its scene must be ``scene``.
 
     Returns
     -------
@@ -145,18 +149,20 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     then, and ``resume`` is refused.
     """
     if isinstance(scene, Scene) and scene.run.stages:
-        return _simulate_stages(scene, progress, writers, keep_frames, resume)
+        return _simulate_stages(scene, progress, writers, keep_frames, resume, model)
     return _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint, resume,
-                         end_checkpoint)
+                         end_checkpoint, model)
 
 
-def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume) -> Result:
+def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume,
+                     model=None) -> Result:
     """:func:`simulate` of a scene with ``run.stages``: each stage one run, judged on
     its own ledger, then the whole run on the continuous ledger."""
     if resume is not None:
         raise SimulationError("run.stages: a staged run cannot be continued from a "
                               "checkpoint; run it again")
-    model = preflight(scene)  # the first stage's checks; each stage's run makes its own
+    if model is None:  # the first stage's checks; each stage's run makes its own
+        model = preflight(scene)
 
     def run_one(stage: Scene, stage_writers) -> Result:
         return _simulate_one(stage, progress, stage_writers, False, None, None, None, False)
@@ -171,9 +177,10 @@ def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume) -> Re
 
 
 def _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint,
-                  resume, end_checkpoint) -> Result:
+                  resume, end_checkpoint, model=None) -> Result:
     """:func:`simulate` of one unstaged run (its parameters)."""
-    model = preflight(scene)
+    if model is None:
+        model = preflight(scene)
     with compile_scope(f"{scene.run.stepper} stepper: {model.features.in_words()}"):
         return _run(scene, model, progress, writers, keep_frames, thermo, checkpoint, resume,
                     end_checkpoint)

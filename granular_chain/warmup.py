@@ -30,11 +30,12 @@ __all__ = ["prepare_kernels", "NOTICE"]
 NOTICE = COMPILE_NOTICE
 
 
-def _two_step_copy(scene):
-    """The scene cut to two steps (same features, same kernels, nothing worth writing)."""
+def _two_step_copy(scene, model=None):
+    """The scene cut to two steps (same features, same kernels, nothing worth writing);
+    ``model``: the scene's, if built already."""
     tiny = scene.model_copy(deep=True)
     tiny.run.stages = None  # (the first stage's kernels are every stage's)
-    model = build_model(scene)
+    model = model if model is not None else build_model(scene)
     if scene.run.stepper == "verlet":
         dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
         tiny.run.dt = dt
@@ -48,7 +49,7 @@ def _two_step_copy(scene):
     return tiny
 
 
-def prepare_kernels(scene, *, quiet: bool = False) -> float:
+def prepare_kernels(scene, *, quiet: bool = False, model=None) -> float:
     """Compile or load the kernels ``scene`` needs; returns the seconds it took.
 
     Called before a run so that the compilation is announced (and the progress
@@ -61,6 +62,9 @@ def prepare_kernels(scene, *, quiet: bool = False) -> float:
     quiet : bool
         No compile notice (the :class:`~granular_chain.notices.CompileNotice` is
         ignored; the ``granular_chain`` logger still has it).
+    model : Model, optional
+        The scene's Model, if built already (it is not built again for the copy's
+        step and span).
 
     Returns
     -------
@@ -74,7 +78,7 @@ def prepare_kernels(scene, *, quiet: bool = False) -> float:
         warnings.simplefilter("ignore", TimeStepWarning)
         if quiet:
             warnings.simplefilter("ignore", CompileNotice)
-        copy = simulate(_two_step_copy(scene), progress=False)
+        copy = simulate(_two_step_copy(scene, model), progress=False)
     if copy.status == Status.INTERRUPTED:  # a stop meant for the command (also one that
         # came while numba compiled, which the copy's run took over): the command stops
         raise Stopped(int(copy.info.get("signal") or 2))

@@ -231,7 +231,7 @@ def run(args) -> int:
         return fail(f"{args.scene or args.restart}: {exc}")
     from ..warmup import prepare_kernels
     try:
-        prepare_kernels(scene, quiet=args.quiet)
+        prepare_kernels(scene, quiet=args.quiet, model=model)
     except KeyboardInterrupt as exc:  # (raise_on_signals: SIGTERM and SIGHUP too)
         signum = getattr(exc, "signum", 0)
         print(f"granular-chain: interrupted while compiling by {exc or 'SIGINT'}; nothing "
@@ -317,7 +317,7 @@ def _execute(args, scene, model, out: Path, restart) -> int:
                         scene, progress=_bar_wanted(args), writers=attached.writers,
                         keep_frames=attached.keep_frames, thermo=attached.thermo,
                         checkpoint=attached.checkpoint(folder.tmp, scene, folder.note_files),
-                        resume=resume, end_checkpoint=True)
+                        resume=resume, end_checkpoint=True, model=model)
                 except BaseException:
                     attached.abandon()
                     raise
