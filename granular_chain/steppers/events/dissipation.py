@@ -49,7 +49,7 @@ TIME_EVENT = -5
 ZERO_ULPS = 64.0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _pulse_on(p2, t, tlo):
     """A pulse wall still moves at time t + tlo (its end, to a few ulps, counts as past)."""
     return (p2 - t) - tlo > 4.0 * 2.2e-16 * abs(p2)
@@ -118,7 +118,7 @@ def wall_series(P, t, tlo, model, work):
                 W[side, k] = c * (sn if r == 0 else cs if r == 1 else -sn if r == 2 else -cs)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def contact_rate(model, state, j):
     """d(delta_j)/dt now: v_(j-1) - v_j with the walls' velocities at the ends.
 
@@ -144,7 +144,7 @@ def contact_rate(model, state, j):
     return vl - vr
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def non_tensile(model, j):
     """Contact j has a dashpot and its total force may not pull."""
     return model.damping[j] != 0.0 and model.dashpot[1] == 0
@@ -169,7 +169,7 @@ def _spring_on(law, tol_v, j, model, state):
     return imp > 0.1 * n * w * tol_v
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _dash_term(model, j, D, S, k):
     """k-th coefficient of contact j's dashpot force from its overlap and spring rows."""
     if model.dashpot[0] == DAMPING_LINEAR:
@@ -177,7 +177,7 @@ def _dash_term(model, j, D, S, k):
     return model.damping[j] * (k + 1) * S[j, k + 1]
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _overlap_term(model, state, work, j, k):
     """Coefficient k + 1 of contact j's overlap from the velocities' (and walls') k-th."""
     N = state.v.size
@@ -410,7 +410,7 @@ def dissipative_candidates(linear, P, h, tol_v, t, tlo, na, model, state, work):
     return tau_e, ncand
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _product_integral(a, b, P, tau):
     """Integral over [0, tau] of (sum_{k<=P} a_k x^k)(sum_{k<=P} (k+1) b_(k+1) x^k):
     a series times the derivative of another (b has P + 2 coefficients), all

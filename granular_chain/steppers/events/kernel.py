@@ -136,7 +136,7 @@ def run_events(law, coulomb, viscous, dissip, settings_array, clock_array, model
             return code
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _buffers_short(clock, state, frames, log):
     """Too little room for a pass: 4 frames, or an event per granule and contact."""
     N = state.u.size
@@ -177,7 +177,7 @@ def _start(law, dissip, settings, clock, model, state, work, frames, log):
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _before_pass(law, settings, clock, model, state, frames, log):
     """Before a pass of the main loop: t_end reached, the step limit, room in the buffers."""
     t = clock.time
@@ -191,7 +191,7 @@ def _before_pass(law, settings, clock, model, state, frames, log):
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames):
     """One step in the current mode, closed-form (two granules, n = 2, contact
     closed, no dashpot) or Taylor. Returns (code, event, tau_e, ncand) as
@@ -209,7 +209,7 @@ def _step(law, coulomb, viscous, dissip, settings, clock, model, state, work, fr
     return taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, _nrt=False)
 def _add_contacts(i, model, work, na):
     """Append the (present, not yet listed) contacts i and i+1 of granule i to active[:na]."""
     for j in range(i, i + 2):
@@ -220,7 +220,7 @@ def _add_contacts(i, model, work, na):
     return na
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _collect_active(dissip, nm, model, state, work):
     """The contacts of the moving set and the stuck granules they touch (and those
     granules' contacts), from the incrementally kept moving set: O(active), not
@@ -256,7 +256,7 @@ def _collect_active(dissip, nm, model, state, work):
     return na, nc
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames):
     """One Taylor step of the mode, to its first event or its step size.
 
@@ -413,7 +413,7 @@ def _frames_in_step(law, coulomb, viscous, dissip, t_new, na, settings, clock, m
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _advance(coulomb, viscous, dissip, P, tau, t_new, t_lo_new, na, clock, model, state, work):
     """Take the state to the end of the step (tau from its start, time t_new +
     t_lo_new) and add the friction (and dashpot and wall) work. False if the

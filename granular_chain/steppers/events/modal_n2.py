@@ -80,7 +80,7 @@ MODE_DTYPE = np.dtype([
 ], align=True)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_sum(a, b):
     """a + b = s + e exactly (Knuth's TwoSum).
 
@@ -99,7 +99,7 @@ def two_sum(a, b):
     return s, (a - (s - bb)) + (b - bb)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def two_prod(a, b):
     """a*b = p + e exactly (Dekker; no FMA needed).
 
@@ -269,7 +269,7 @@ def _csa(p, th, tl):
     return A, A * (th + tl), E
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def slow_rate(K, half_c, kap):
     """Slow decay rate of an overdamped mode, c/2 - sqrt(c^2/4 - K), written as
     K / (c/2 + kap) (kap = sqrt(c^2/4 - K)): the difference form cancels to nothing

@@ -154,7 +154,7 @@ def try_jump(law, settings, clock, model, state):
     return True
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _candidate(work, ncand, kind, index, rh, rl, bh, bl):
     """Write a candidate root (rh + rl) and return the count and the earliest root."""
     work.cand_kind[ncand] = kind

@@ -20,7 +20,7 @@ from ...laws.damping import damped_contact_force, dashpot_force
 from ...laws.wall_motion import WALL_PULSE
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _contact_force(law, model, state, j):
     """Force of contact j, its dashpot's included (0 when absent or open)."""
     if model.present[j] == 0 or state.closed[j] == 0:
@@ -40,7 +40,7 @@ def _contact_force(law, model, state, j):
     return contact_force(law, state.overlap[j], model.stiffness[j], model.exponent[j])
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _rate(state, j):
     """d(delta_j)/dt now (the walls' velocities at the ends)."""
     N = state.v.size
@@ -325,7 +325,7 @@ def _settle_window(law, model, state, work):
     work.window[1] = hi
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def log_event(t, kind, index, clock, log):
     """Append an event (time, codes.EventKind, model index) to the log.
 
@@ -412,7 +412,7 @@ def settle(law, t, settings, clock, model, state, work, log):
     return opened
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def is_moving(i, state, model):
     """Member of the moving set: sliding, or frictionless and not at rest
     force-free (v != 0 or a closed contact).

@@ -175,7 +175,7 @@ def first_root(c, P, sgn, shift, h):
     return math.inf
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _add(work, ncand, kind, index, root):
     work.cand_kind[ncand] = kind
     work.cand_index[ncand] = index
@@ -237,7 +237,7 @@ def switch_on_overlap(P, tol_v, w, n, k, Dj):
     return don
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def contact_candidates(linear, P, h, tol_v, na, model, state, work):
     """Roots of every contact's event functions within [0, h].
 
@@ -303,7 +303,7 @@ def contact_candidates(linear, P, h, tol_v, na, model, state, work):
     return tau_e, ncand
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def friction_candidates(P, h, rtol, nm, nc, ncand, tau_e, model, state, work):
     """Coulomb friction's roots within [0, h].
 

@@ -22,7 +22,7 @@ import numba
 from ...laws.contact import LAW_LINEAR, contact_force
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def horner(c, P, x):
     """sum_{k<=P} c_k x^k.
 
@@ -47,7 +47,7 @@ def horner(c, P, x):
     return s
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def horner_d(c, P, x):
     """Value and derivative of sum c_k x^k.
 
@@ -75,7 +75,7 @@ def horner_d(c, P, x):
     return s, d
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def increment(c, P, x):
     """sum_{k>=1} c_k x^k (the change over the step, without cancelling c_0).
 
@@ -100,7 +100,7 @@ def increment(c, P, x):
     return s * x
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, _nrt=False)
 def force_term(linear, on, k_c, n_c, Dj, Fj, k):
     """k-th Taylor coefficient of a contact force k_c delta^(n_c - 1).
 
@@ -140,7 +140,7 @@ def force_term(linear, on, k_c, n_c, Dj, Fj, k):
     return s / (k * Dj[0])
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _switch_forces(law, tol_v, na, model, state, work):
     """Zeroth coefficients of the step's overlaps and forces, and which closed
     contacts have their force on (``work.force_on``): always for n = 2; for other
@@ -167,7 +167,7 @@ def _switch_forces(law, tol_v, na, model, state, work):
         Fc[j, 0] = contact_force(law, overlap[j], stiffness[j], exponent[j]) if on[j] == 1.0 else 0.0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
     """Taylor coefficients to order P of the moving granules' u, v and of the
     step's contacts' overlaps and forces (``work.*_series``).
@@ -243,7 +243,7 @@ def build_series(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
         Fc[j, P] = force_term(linear, on[j] == 1.0, stiffness[j], exponent[j], D[j], Fc[j], P)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def step_size(linear, P, rtol, atol, h, nm, na, state, work):
     """The step: ``h`` cut so that the last two terms of every controlled series
     are below ``rtol |x| + atol`` (Jorba & Zou).
@@ -310,7 +310,7 @@ def step_size(linear, P, rtol, atol, h, nm, na, state, work):
     return h
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def _grazing_cap(P, h, na, work):
     """Keep the step inside half the distance to the branch points of a closed
     contact near a grazing minimum (at tau_m, delta_m > 0).
@@ -390,7 +390,7 @@ def ledger_increment(coulomb, viscous, P, nm, model, state, work, tau):
     return wc, wv
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@numba.njit(inline="always", cache=True, error_model="numpy", _nrt=False)
 def square_integral(weight, c, P, tau):
     """Integral over [0, tau] of weight * (sum_{k<=P} c_k x^k)^2, all 2P + 1 terms.
 
