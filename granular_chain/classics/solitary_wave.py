@@ -284,13 +284,16 @@ def figure(outcome: Outcome, path: Path) -> None:
            label="engine: granule 80 after the striker (event)")
     a.set_xlabel("distance to the peak (granules)")
     a.set_ylabel(r"$v / v_{max}$")
-    a.legend(fontsize=8)
+    a.legend(fontsize=8, loc="upper left")
     s = d["scaling"]
-    b.semilogx(s["v0"], s["constant"], "o", color="tab:red", label="engine (event), struck")
-    b.axhline(d["exact_constant"] * d["struck"]["event"]["v_max"] ** 0.2, color="k",
-              label=r"exact wave at $v_{max} = 0.6817\,v_0$")
+    v0 = np.asarray(s["v0"])
+    b.loglog(v0, np.asarray(s["constant"]) * v0 ** 0.2, "o", color="tab:red",
+             label="engine (event), struck chain of 40")
+    line = np.geomspace(v0[0], v0[-1], 50)
+    b.loglog(line, s["constant"][list(V0S).index(1.0)] * line ** 0.2, "k-", lw=1,
+             label=r"$c(v_0 = 1)\,v_0^{1/5}$ (slope %.10f)" % s["slope"])
     b.set_xlabel(r"striker speed $v_0$")
-    b.set_ylabel(r"speed / $v_0^{1/5}$ (granules per unit time)")
+    b.set_ylabel("wave speed (granules per unit time)")
     b.legend(fontsize=8)
     fig.suptitle("Hertz solitary wave (scenarios/classics/solitary_wave.yaml)", fontsize=10)
     fig.tight_layout()
