@@ -180,6 +180,19 @@ def test_command_refuses_bad_input_in_one_line(capsys, tmp_path, monkeypatch, ar
     assert not any(tmp_path.iterdir())
 
 
+def test_command_refuses_a_bad_scene_before_any_work(capsys, tmp_path, monkeypatch):
+    """A scene of --scenes that does not validate: one line naming the file and the
+    field, exit 2, no folder made."""
+    (tmp_path / "scenes").mkdir()
+    text = (SCENES / nc.SCENE).read_text().replace("count: 5", "count: -5")
+    (tmp_path / "scenes" / nc.SCENE).write_text(text)
+    monkeypatch.chdir(tmp_path)
+    assert main(["classics", "newtons_cradle", "--scenes", "scenes", "--out", "out"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and nc.SCENE in err[0] and "granules.count" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
 def test_command_writes_through_the_output_claim(capsys, tmp_path, monkeypatch):
     """--out: a new folder, marked as the command's; again into it replaces its own
     files; a file the user put there makes it refuse, changing nothing."""

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from ..classics import EXPERIMENTS, SCENES, format_table, table_csv, table_json
+from ..classics.experiment import scene_of
 from ..extras import check
 from ..rundir import OutputError, claim_folder, write_atomic, write_text_atomic
 from ..scene import SceneError
@@ -82,11 +83,15 @@ def run(args) -> int:
                     f"{', '.join(EXPERIMENTS)} or all")
     chosen = _chosen(args.names)
     scenes = Path(args.scenes) if args.scenes is not None else SCENES
-    for e in chosen:  # decided before any work
+    for e in chosen:  # decided before any work: each scene there and valid
         for s in e.scenes:
             if not (scenes / s).is_file():
                 return fail(f"classics: {scenes / s}: no such scene file (--scenes names the "
                             f"folder holding {', '.join(e.scenes)})")
+            try:
+                scene_of(scenes, s)
+            except SceneError as exc:
+                return fail(str(exc))
     claim = None
     if args.out is not None:
         check("matplotlib", "granular-chain classics --out")
