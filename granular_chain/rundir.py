@@ -621,7 +621,8 @@ class Claim:
         """Drop the names not written; a claim cut short (a signal, an error) that
         wrote some files leaves its new folder marked incomplete, with the reason."""
         reason = "" if exc_type is None else (
-            f"interrupted by {exc}" if isinstance(exc, Stopped) else "interrupted")
+            f"interrupted by {exc}" if isinstance(exc, Stopped)
+            else f"stopped by an error: {exc}" if exc else "interrupted")
         with held_signals():
             if self._stage is not None:
                 shutil.rmtree(self._stage, ignore_errors=True)

@@ -21,7 +21,8 @@ STAGES = [
     {"result", "dataset", "frames", "ledger"},    # what a run gives, frame by frame
     {"steppers", "stages", "budget", "readback", "diagnostics", "writers"},
     {"simulate"},                                 # scene -> Result, through a stepper
-    {"warmup", "restart", "two_granules", "boundaries", "paper", "sweep"},  # built on runs
+    {"warmup", "restart", "two_granules", "boundaries", "paper", "sweep",  # built on runs
+     "classics"},
     {"granular_chain"},                           # the package's face
     {"cli", "__main__"},                          # the command line
 ]

@@ -43,6 +43,7 @@ FOLDER_COMMANDS = {
     "plot": ["plot", "r1", "--no-render"],
     "export": ["export", "r1", "--format", "vtu"],
     "sweep": SWEEP,
+    "classics": ["classics", "newtons_cradle"],
 }
 
 
@@ -105,7 +106,7 @@ def work(runs, tmp_path, monkeypatch):
     mine = tmp_path / "mine"
     mine.mkdir()
     for name in ("paper_energy.png", "boundaries_curves.csv", "energy.png", "results.csv",
-                 "frame_000000.vtu"):
+                 "frame_000000.vtu", "classics_newtons_cradle.csv"):
         (mine / name).write_text(f"the user's {name}")
     (tmp_path / "linked").symlink_to("mine")
     (tmp_path / "notes.txt").write_text("the user's notes")
@@ -127,6 +128,8 @@ def forbid(monkeypatch):
                          ("readback", "read_trajectory"), ("readback", "read_run"),
                          ("simulate", "simulate"), ("sweep.execute", "run_batch")):
         monkeypatch.setattr(import_module(f"granular_chain.{module}"), name, _no_work)
+    monkeypatch.setattr(import_module("granular_chain.classics.experiment").Experiment, "run",
+                        _no_work)
 
 
 # ----------------------------------------------------------------------------

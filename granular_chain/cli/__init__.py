@@ -1,5 +1,5 @@
 """The ``granular-chain`` command: run | validate | schema | plot | export | sweep | diagnose |
-figures | boundaries.
+figures | boundaries | classics.
 
 Exit status: 0 success, 1 a run that ended without success (its outputs say
 why), 2 bad input (one line on stderr naming the file, the field and the
@@ -11,7 +11,7 @@ What ``run`` writes, and where, is described in :mod:`.run`.
 
 One module per subcommand (:mod:`.run`, :mod:`.validate`, :mod:`.schema`,
 :mod:`.plot`, :mod:`.sweep`, :mod:`.diagnose`, :mod:`.figures`,
-:mod:`.boundaries`, :mod:`.export`), each with ``add_parser`` and ``run``;
+:mod:`.boundaries`, :mod:`.export`, :mod:`.classics`), each with ``add_parser`` and ``run``;
 :mod:`.main` builds the parser and dispatches, :mod:`.exit_codes` holds the
 exit statuses.
 """

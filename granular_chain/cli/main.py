@@ -20,7 +20,7 @@ __all__ = ["main", "build_parser", "show_warning", "COMMANDS"]
 
 #: The subcommands, in the order ``--help`` lists them (each a module of this package).
 COMMANDS = ("run", "validate", "schema", "plot", "sweep", "diagnose", "figures", "boundaries",
-            "export")
+            "export", "classics")
 
 
 class _Parser(argparse.ArgumentParser):

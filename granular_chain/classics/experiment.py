@@ -1,0 +1,104 @@
+"""What a classic experiment is: a name, a title, its scene files, a function
+returning its table, and a figure."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from ..scene import Scene, load_scene
+from .table import Row
+
+__all__ = ["Experiment", "Outcome", "SCENES", "scene_of"]
+
+#: Where the experiments' scenes are: ``scenarios/classics/`` of the source tree.
+SCENES = Path(__file__).resolve().parents[2] / "scenarios" / "classics"
+
+
+@dataclass
+class Outcome:
+    """What an experiment found.
+
+    Attributes
+    ----------
+    rows : list of Row
+        The table.
+    data : dict
+        Further numbers and curves (JSON-ready), for the figure and the JSON file.
+    """
+
+    rows: list
+    data: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One classic experiment.
+
+    Attributes
+    ----------
+    name : str
+        Its name on the command line (``granular-chain classics NAME``).
+    title : str
+        One line saying what it is.
+    scenes : tuple of str
+        Its scene files, in :data:`SCENES`.
+    compute : callable(Path) -> Outcome
+        Runs it, given the folder holding its scenes.
+    figure : callable(Outcome, Path) -> None
+        Draws its figure into a PNG file (needs matplotlib).
+    """
+
+    name: str
+    title: str
+    scenes: tuple
+    compute: Callable[[Path], Outcome]
+    figure: Callable[[Outcome, Path], None]
+
+    def run(self, scenes: Path = SCENES) -> Outcome:
+        """Run the experiment.
+
+        Parameters
+        ----------
+        scenes : Path
+            The folder holding its scene files (default :data:`SCENES`).
+
+        Returns
+        -------
+        Outcome
+        """
+        return self.compute(Path(scenes))
+
+    def rows(self, scenes: Path = SCENES) -> list[Row]:
+        """The experiment's table (it runs the experiment).
+
+        Parameters
+        ----------
+        scenes : Path
+            The folder holding its scene files.
+
+        Returns
+        -------
+        list of Row
+        """
+        return self.run(scenes).rows
+
+
+def scene_of(folder: Path, name: str, overrides=()) -> Scene:
+    """Load the scene ``folder/name`` with ``--set``-style overrides.
+
+    Parameters
+    ----------
+    folder : Path
+        The scenes' folder.
+    name : str
+        The file's name.
+    overrides : sequence of str
+        ``dotted.path=value`` items.
+
+    Returns
+    -------
+    Scene
+    """
+    return load_scene(Path(folder) / name, list(overrides))
