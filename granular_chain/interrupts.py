@@ -22,12 +22,16 @@ import threading
 from dataclasses import dataclass
 
 __all__ = ["CHUNK_SECONDS", "STOP_SIGNALS", "StopRequest", "Stopped", "stop_signals",
-           "raise_on_signals", "held_signals"]
+           "raise_on_signals", "held_signals", "pool_worker_signals"]
 
 #: The signals that stop a run cleanly (SIGHUP: the terminal was closed; absent on
 #: Windows).
 STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP")
                      if hasattr(signal, name))
+
+#: True in a pool's worker process (:func:`pool_worker_signals`): the signals are its
+#: parent's to handle, and none of this module's blocks changes a handler there.
+_POOL_WORKER = False
 
 #: Target wall time of one compiled chunk (seconds): small enough that a stop
 #: request is honoured well within one second, large enough that the Python
@@ -92,7 +96,7 @@ def stop_signals():
     StopRequest
         Shared by nested blocks.
     """
-    if threading.current_thread() is not threading.main_thread():
+    if not _main_thread():
         yield StopRequest()
         return
     current = signal.getsignal(signal.SIGINT)
@@ -117,7 +121,28 @@ def stop_signals():
 
 
 def _main_thread() -> bool:
-    return threading.current_thread() is threading.main_thread()
+    """The thread that may handle signals: the main thread, outside a pool's worker."""
+    return threading.current_thread() is threading.main_thread() and not _POOL_WORKER
+
+
+def pool_worker_signals() -> None:
+    """Initializer of a process pool's workers (``Pool(initializer=...)``): the parent
+    command owns the signals.
+
+    SIGINT is ignored (a terminal's Ctrl-C reaches the whole process group: the parent
+    stops and ends the pool); SIGTERM and SIGHUP end the worker at once, which is how
+    ``Pool.terminate`` ends it. A worker forked while a run's :func:`stop_signals` or
+    a command's :func:`raise_on_signals` was active would otherwise keep that handler:
+    a SIGTERM taken as a stop request for the worker's own run left it alive, blocked
+    on a result queue its parent no longer read, and the parent waiting for it for
+    ever. Inside the worker, those blocks then change no handler.
+    """
+    global _POOL_WORKER
+    _POOL_WORKER = True
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for s in STOP_SIGNALS:
+        if s != signal.SIGINT:
+            signal.signal(s, signal.SIG_DFL)
 
 
 @contextlib.contextmanager

@@ -19,7 +19,7 @@ from typing import Optional
 import numpy as np
 
 from ..codes import Status
-from ..interrupts import stop_signals
+from ..interrupts import pool_worker_signals, stop_signals
 from ..model import friction_features
 from ..scene import scene_from_dict
 from ..simulate import simulate
@@ -202,7 +202,8 @@ def _run_groups(groups, workers, ends):
     _MAP_WORK.update({g: w[:4] for g, w in groups.items()})
     try:
         if workers > 1 and len(tasks) > 1:
-            with multiprocessing.get_context("fork").Pool(min(workers, len(tasks))) as pool:
+            with multiprocessing.get_context("fork").Pool(
+                    min(workers, len(tasks)), initializer=pool_worker_signals) as pool:
                 parts = [(t[0],) + r for t, r in zip(tasks, pool.map(_map_task, tasks,
                                                                     chunksize=1))]
         else:
