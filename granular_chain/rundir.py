@@ -620,9 +620,9 @@ class Claim:
     def __exit__(self, exc_type, exc, tb) -> None:
         """Drop the names not written; a claim cut short (a signal, an error) that
         wrote some files leaves its new folder marked incomplete, with the reason."""
-        reason = "" if exc_type is None else (
-            f"interrupted by {exc}" if isinstance(exc, Stopped)
-            else f"stopped by an error: {exc}" if exc else "interrupted")
+        reason = ("" if exc_type is None else f"interrupted by {exc}" if isinstance(exc, Stopped)
+                  else "interrupted" if isinstance(exc, KeyboardInterrupt)
+                  else f"stopped by an error: {exc_type.__name__}: {exc}")
         with held_signals():
             if self._stage is not None:
                 shutil.rmtree(self._stage, ignore_errors=True)
