@@ -12,8 +12,9 @@ from .table import Row
 
 __all__ = ["Experiment", "Outcome", "SCENES", "scene_of"]
 
-#: Where the experiments' scenes are: ``scenarios/classics/`` of the source tree.
-SCENES = Path(__file__).resolve().parents[2] / "scenarios" / "classics"
+#: Where the experiments' scenes are: ``scenarios/classics/`` of the source tree, installed
+#: with the package as ``granular_chain/classics/scenes/`` (a link to it in the source tree).
+SCENES = Path(__file__).resolve().parent / "scenes"
 
 
 @dataclass
