@@ -8,18 +8,28 @@ import hashlib as _hashlib
 from pathlib import Path as _Path
 
 
+#: Sub-packages without numba kernels that no kernel's module imports (checked by
+#: tests/test_import_graph.py): their sources do not enter the kernels' digest.
+KERNEL_FREE = ("cli", "classics", "__main__.py")
+
+
 def _drop_stale_kernels() -> None:
     """Delete the package's cached numba kernels when any of its sources changed.
 
     numba keys each cached kernel on its own file only; our kernels inline the
     laws of other modules, so after an edit or upgrade of, say, laws/friction.py
-    a cached kernel would keep the old machine code. A digest of all sources is
+    a cached kernel would keep the old machine code. A digest of the sources is
     kept beside the cache; when it differs the package's .nbi/.nbc files go.
+    The command line and the classic experiments (``KERNEL_FREE``) are left out of
+    the digest: they hold no kernel and no kernel's module imports them
+    (tests/test_import_graph.py), so editing them keeps the compiled kernels.
     (A cache moved elsewhere with NUMBA_CACHE_DIR is not touched.)
     """
     root = _Path(__file__).resolve().parent
+    sources = [f for f in sorted(root.rglob("*.py"))
+               if f.relative_to(root).parts[0] not in KERNEL_FREE]
     try:
-        digest = _hashlib.sha1(b"".join(f.read_bytes() for f in sorted(root.rglob("*.py"))))
+        digest = _hashlib.sha1(b"".join(f.read_bytes() for f in sources))
         stamp = root / "__pycache__" / "numba_sources.sha1"
         if stamp.exists() and stamp.read_text() == digest.hexdigest():
             return

@@ -118,3 +118,25 @@ def test_the_check_finds_a_circle_and_an_upward_import():
              "granular_chain.model": {"granular_chain.scene"}}
     assert _circles(graph) == [["granular_chain.model", "granular_chain.scene"]]
     assert _stage("granular_chain.model") > _stage("granular_chain.scene")
+
+
+def test_the_kernel_free_parts_hold_no_kernel_and_no_kernel_imports_them():
+    """granular_chain.KERNEL_FREE stays out of the digest that drops stale compiled
+    kernels: it must hold no numba code, and no other module may import it."""
+    from granular_chain import KERNEL_FREE
+
+    def free(module: str) -> bool:
+        parts = module.split(".")
+        return len(parts) > 1 and (parts[1] in KERNEL_FREE or f"{parts[1]}.py" in KERNEL_FREE)
+
+    graph = import_graph()
+    importers = [f"{a} -> {b}" for a, deps in sorted(graph.items()) for b in sorted(deps)
+                 if free(b) and not free(a)]
+    assert importers == []
+    numba = [str(p) for part in KERNEL_FREE for p in sorted((PACKAGE / part).rglob("*.py"))
+             if "numba" in p.read_text()] + (
+        [part for part in KERNEL_FREE if part.endswith(".py")
+         and "numba" in (PACKAGE / part).read_text()])
+    assert numba == []
+    assert free("granular_chain.cli.run") and free("granular_chain.classics.registry")
+    assert not free("granular_chain.steppers.events.kernel")

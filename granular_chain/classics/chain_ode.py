@@ -1,4 +1,4 @@
-"""An independent integration of a frictionless chain: scipy's DOP853 at tight tolerance.
+"""An independent integration of a chain: scipy's DOP853 at tight tolerance.
 
 The reference the engine's steppers are checked against where the literature
 gives no number to the digits needed. Granule ``i`` (mass ``m_i``) at ``x_i``
@@ -7,11 +7,16 @@ with velocity ``v_i``; contact ``i`` joins granules ``i`` and ``i+1`` with overl
 
     m_i x_i'' = F_{i-1} - F_i,    F_i = k_i max(delta_i, 0)^(n-1)           (1)
 
-written here once more, in numpy, apart from the engine's laws and kernels, and
-integrated by :func:`scipy.integrate.solve_ivp` (``DOP853``, an explicit
+and, on a granule with Coulomb friction ``eta_i`` (kinetic and static alike),
+
+    m_i x_i'' = F_{i-1} - F_i - eta_i sign(v_i)        while it slides,       (2)
+
+held at rest while ``|F_{i-1} - F_i| <= eta_i``; written here once more, in numpy,
+apart from the engine's laws and kernels, and integrated by :func:`scipy.integrate.solve_ivp` (``DOP853``, an explicit
 Runge-Kutta method of order 8 with error control). The force has a kink of
-order ``n - 1`` where a contact opens or closes; the step-size control resolves
-it, and the reference's own error is measured by running it again at a
+order ``n - 1`` where a contact opens or closes and friction jumps where a granule
+stops or starts to slide; every piece between two such events is integrated
+apart, and the reference's own error is measured by running it again at a
 tolerance ten times tighter (:func:`reference_error`).
 """
 
@@ -57,8 +62,8 @@ class ChainSolution:
 
 
 def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
-                    rtol=1e-13) -> ChainSolution:
-    """Integrate eq. (1) from ``(x0, v0)`` to ``t_end`` with DOP853.
+                    rtol=1e-13, eta=0.0, stop_contact=None) -> ChainSolution:
+    """Integrate eq. (1), with eq. (2) where ``eta`` is set, from ``(x0, v0)`` with DOP853.
 
     Parameters
     ----------
@@ -76,6 +81,10 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
         End time.
     rtol : float
         DOP853's relative and absolute tolerance.
+    eta : float or array_like, shape (N,)
+        Coulomb friction force on each granule, eq. (2), kinetic and static alike.
+    stop_contact : int, optional
+        End at the first opening of this contact instead of at ``t_end``.
 
     Returns
     -------
@@ -86,34 +95,113 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
     RuntimeError
         DOP853 failed (its message).
     """
-    m = np.asarray(mass, float)
-    reach, k = np.asarray(reach, float), np.broadcast_to(np.asarray(k, float), m.size - 1)
-    count = m.size
-
-    def rhs(_t, y):
-        delta = reach - np.diff(y[:count])
-        force = k * np.maximum(delta, 0.0) ** (n - 1.0)
-        acc = np.zeros(count)
-        acc[:-1] -= force
-        acc[1:] += force
-        return np.concatenate([y[count:], acc / m])
-
+    chain = _Chain(np.asarray(mass, float), np.asarray(reach, float),
+                   np.broadcast_to(np.asarray(k, float), len(mass) - 1), float(n),
+                   np.broadcast_to(np.asarray(eta, float), len(mass)))
     y = np.concatenate([np.asarray(x0, float), np.asarray(v0, float)])
-    t, evaluations, fired = 0.0, 0, set()
+    t, evaluations, fired, released = 0.0, 0, set(), set()
     while t < t_end:
-        # restarted at every contact's opening and closing: each piece is smooth
-        # inside, so the error control never steps across a kink of the force
-        sol = solve_ivp(rhs, (t, t_end), y, method="DOP853", rtol=rtol, atol=rtol, first_step=FIRST_STEP,
-                        events=[_contact_event(i, reach[i], count, t, y, i in fired)
-                                for i in range(count - 1)])
+        # restarted at every contact's opening and closing and every change of a
+        # granule's sliding: each piece is smooth inside, so the error control never
+        # steps across a kink of the force
+        slide = chain.sliding(y, released)
+        events = chain.events(t, y, slide, fired)
+        sol = solve_ivp(chain.rhs(slide), (t, t_end), y, method="DOP853", rtol=rtol,
+                        atol=rtol, first_step=FIRST_STEP, events=events)
         if not sol.success:
             raise RuntimeError(f"DOP853: {sol.message}")
         evaluations += int(sol.nfev)
-        t, y = float(sol.t[-1]), sol.y[:, -1]
+        t, y = float(sol.t[-1]), sol.y[:, -1].copy()
         fired = {i for i, hit in enumerate(sol.t_events) if hit.size}
-    return ChainSolution(t_end=t, x=y[:count], v=y[count:],
-                         overlaps=reach - np.diff(y[:count]), evaluations=evaluations,
-                         rtol=rtol)
+        if stop_contact is not None and stop_contact in fired \
+                and y[chain.count + stop_contact] < y[chain.count + stop_contact + 1]:
+            break  # the watched contact opened (its overlap falls through zero)
+        released = set()
+        for g in (chain.granule_of(i) for i in fired - set(range(chain.count - 1))):
+            if slide[g] == 0.0:
+                released.add(g)  # a held granule's force reached the friction: it slips
+            else:
+                y[chain.count + g] = 0.0  # a sliding granule came to rest
+    return ChainSolution(t_end=t, x=y[:chain.count], v=y[chain.count:],
+                         overlaps=chain.reach - np.diff(y[:chain.count]),
+                         evaluations=evaluations, rtol=rtol)
+
+
+@dataclass(frozen=True)
+class _Chain:
+    """The chain's constants, and the right-hand side and events of one smooth piece."""
+
+    m: np.ndarray
+    reach: np.ndarray
+    k: np.ndarray
+    n: float
+    eta: np.ndarray
+
+    @property
+    def count(self) -> int:
+        """Granules in the chain."""
+        return self.m.size
+
+    @property
+    def frictional(self) -> np.ndarray:
+        """Indices of the granules with friction (each has one event, after the contacts')."""
+        return np.flatnonzero(self.eta > 0.0)
+
+    def granule_of(self, event: int) -> int:
+        """The granule whose friction event has index ``event`` in the event list."""
+        return int(self.frictional[event - (self.count - 1)])
+
+    def contact_force(self, y: np.ndarray) -> np.ndarray:
+        """Net contact force on each granule, eq. (1), shape (N,)."""
+        force = self.k * np.maximum(self.reach - np.diff(y[:self.count]), 0.0) ** (self.n - 1.0)
+        net = np.zeros(self.count)
+        net[:-1] -= force
+        net[1:] += force
+        return net
+
+    def sliding(self, y: np.ndarray, released=()) -> np.ndarray:
+        """Each granule's sliding direction for the next piece (eq. (2)): the sign of
+        its velocity; at rest, the sign of the net force if that exceeds the friction
+        (or the granule is in ``released``, whose force has just reached it), else 0
+        (held). Frictionless granules: 2 (free)."""
+        v, net = y[self.count:], self.contact_force(y)
+        pushed = np.where(np.abs(net) > self.eta, np.sign(net), 0.0)
+        pushed[list(released)] = np.sign(net[list(released)])
+        return np.where(self.eta > 0.0, np.where(v != 0.0, np.sign(v), pushed), 2.0)
+
+    def rhs(self, slide: np.ndarray):
+        """The piece's right-hand side: contact forces, friction against ``slide``,
+        held granules kept at rest."""
+        friction = np.where(np.abs(slide) == 1.0, -self.eta * slide, 0.0)
+        held = slide == 0.0
+
+        def rhs(_t, y):
+            acc = (self.contact_force(y) + friction) / self.m
+            acc[held] = 0.0
+            return np.concatenate([y[self.count:], acc])
+
+        return rhs
+
+    def events(self, t0: float, y0: np.ndarray, slide: np.ndarray, fired: set) -> list:
+        """The piece's terminal events: every contact's opening or closing, then, for
+        each granule with friction, the end of its sliding (velocity through zero) or
+        of its holding (net force reaching the friction)."""
+        contacts = [_contact_event(i, self.reach[i], self.count, t0, y0, i in fired)
+                    for i in range(self.count - 1)]
+        return contacts + [self._friction_event(int(g), slide[g], t0) for g in self.frictional]
+
+    def _friction_event(self, g: int, slide: float, t0: float):
+        """Granule ``g``'s friction event for a piece starting at ``t0``."""
+        def moving(t, y):
+            # a granule that starts to slip from rest has v = 0 at t0: no crossing there
+            return slide if t == t0 and y[self.count + g] == 0.0 else y[self.count + g]
+
+        def held(_t, y):
+            return abs(self.contact_force(y)[g]) - self.eta[g]
+
+        event = held if slide == 0.0 else moving
+        event.terminal = True
+        return event
 
 
 def _contact_event(i: int, reach: float, count: int, t0: float, y0: np.ndarray,
