@@ -23,6 +23,11 @@ Three measurements:
    the amplitude is the anharmonic frequency shift, of order ``eps^2``: it is measured
    by running at ``10 eps`` (its shift over 100), and the amplitude study shows the
    ``eps^2`` law. Both steppers; Verlet's error by halving dt.
+   The group velocity: a right-moving Gaussian packet (300 granules, width 20, carrier
+   q) run while it travels 120 granules; the speed of the centroid of
+   ``(omega u)^2 + v^2`` against that of the linearised lattice from the same start
+   (:func:`linear_lattice`, exact), and against ``v_g(q)`` of eq. (3), from which a
+   packet of finite width differs by its spread in q.
 2. The sound speed: ``omega / (2 sin(q/2))`` of the longest mode (j = 1), against
    eq. (2), for ``delta0 = 1e-4 .. 1e-1``.
 3. The crossover: granule 0 struck at ``v0 = 1e-4`` (100 granules); the pulse speed
@@ -55,7 +60,8 @@ from .hertz_wave import NESTERENKO_CONSTANT, solve_travelling_wave
 from .table import Row
 
 __all__ = ["EXPERIMENT", "SCENE", "stiffness", "sound_speed", "frequency", "group_velocity",
-           "velocity_scale", "long_wave_speed", "mode_frequency", "linear_pulse",
+           "velocity_scale", "long_wave_speed", "mode_frequency", "linear_lattice", "linear_pulse",
+           "packet_speed", "PACKET_QS",
            "struck_pulse", "compute", "figure", "MODE_COUNT", "MODE_DELTA0", "MODES",
            "AMPLITUDE", "AMPLITUDES", "SOUND_DELTA0S", "CROSS_DELTA0S", "VERLET_DELTA0S",
            "VERLET_FRACTION", "FIRST", "LAST", "LINEAR_BELOW", "SOLITARY_ABOVE"]
@@ -76,12 +82,16 @@ VERLET_FRACTION = 0.05
 #: Granules of the pulse-speed fit; frames per granule of travel.
 FIRST, LAST, FRAMES_PER_GRANULE = 20, 70, 50
 PERIODS = 8
+#: Wave packets: carriers q, granules, start and width (granules), travel (granules).
+PACKET_QS = (math.pi / 4, math.pi / 2, 3 * math.pi / 4)
+PACKET_COUNT, PACKET_START, PACKET_WIDTH, PACKET_TRAVEL = 300, 80.0, 20.0, 120.0
 #: The crossover's table compares with the linearised lattice's pulse below this
 #: rho = v_max / (c0 delta0) (above it the lattice's pulse is slower than the
 #: engine's by more than 7 %), with the long-wave solitary wave above the second
 #: (below it the struck pulse has formed no solitary wave by granule 70).
 LINEAR_BELOW, SOLITARY_ABOVE = 1.0, 0.1
 LATTICE = "linearised lattice, eq. (3) (exact)"
+LINEAR_PACKET = "linearised lattice's packet, normal modes (exact)"
 LINEAR_PULSE = "linearised lattice struck, normal modes (exact), same fit"
 LONG_WAVE = "long-wave solitary wave (Nesterenko's equation; approximate)"
 SOLITARY = "exact discrete wave C v_max^(1/5) (Petviashvili, computed)"
@@ -278,9 +288,36 @@ def mode_frequency(folder: Path, delta0: float, j: int, amplitude: float, steppe
             "energy_error": float(result.energy.balance_error)}
 
 
+def linear_lattice(delta0: float, u0: np.ndarray, v0: np.ndarray, t: np.ndarray) -> tuple:
+    """Displacements and velocities of the linearised walled chain (eq. (1)) by its
+    normal modes ``phi_j = sqrt(2/(N+1)) sin(q_j (i + 1))``: each mode's coordinate
+    is ``a_j cos(omega_j t) + (b_j / omega_j) sin(omega_j t)``.
+
+    Parameters
+    ----------
+    delta0 : float
+        Static overlap (sets K).
+    u0, v0 : ndarray, shape (N,)
+        Initial displacements (from equilibrium) and velocities.
+    t : ndarray, shape (F,)
+        Times.
+
+    Returns
+    -------
+    u, v : ndarray, shape (F, N)
+        Displacements and velocities.
+    """
+    count = len(u0)
+    q = math.pi * np.arange(1, count + 1) / (count + 1)
+    phi = math.sqrt(2.0 / (count + 1)) * np.sin(np.outer(np.arange(1, count + 1), q))
+    a, b, w = phi.T @ u0, phi.T @ v0, frequency(q, delta0)
+    c, s = np.cos(np.outer(t, w)), np.sin(np.outer(t, w))
+    return (a * c + b / w * s) @ phi.T, (b * c - a * w * s) @ phi.T
+
+
 def linear_pulse(delta0: float, v0: float, count: int, t: np.ndarray) -> np.ndarray:
-    """Velocities of the linearised walled chain (eq. (1)) after granule 0 starts at ``v0``,
-    by its normal modes: ``v(t) = sum_j phi_j (phi_j . v(0)) cos(omega_j t)``.
+    """Velocities of the linearised walled chain after granule 0 starts at ``v0``
+    (:func:`linear_lattice`).
 
     Parameters
     ----------
@@ -298,11 +335,69 @@ def linear_pulse(delta0: float, v0: float, count: int, t: np.ndarray) -> np.ndar
     ndarray, shape (F, count)
         Velocities.
     """
-    j = np.arange(1, count + 1)
-    q = math.pi * j / (count + 1)
-    phi = math.sqrt(2.0 / (count + 1)) * np.sin(np.outer(np.arange(1, count + 1), q))
-    weights = phi[0] * v0  # phi_j . v(0), v(0) = v0 e_0
-    return (np.cos(np.outer(t, frequency(q, delta0))) * weights) @ phi.T
+    start = np.zeros(count)
+    start[0] = v0
+    return linear_lattice(delta0, np.zeros(count), start, np.asarray(t, float))[1]
+
+
+def packet_speed(folder: Path, q: float, amplitude: float, stepper: str,
+                 fraction: float = VERLET_FRACTION) -> dict:
+    """A right-moving wave packet of carrier ``q`` and its group velocity.
+
+    :data:`PACKET_COUNT` granules at :data:`MODE_DELTA0`, displaced by
+    ``u_i = A g_i cos(q i)`` with velocities ``A omega g_i sin(q i)``, ``g`` a Gaussian
+    of :data:`PACKET_WIDTH` granules centred on granule :data:`PACKET_START`, strain
+    amplitude ``eps delta0``; run while it travels :data:`PACKET_TRAVEL` granules at
+    ``v_g(q)``. The speed is the shift of the centroid of ``(omega u)^2 + v^2`` over
+    the time; the reference is that of the linearised lattice from the same start.
+
+    Parameters
+    ----------
+    folder : Path
+        The scenes' folder.
+    q : float
+        Carrier wavenumber, radians per granule.
+    amplitude : float
+        ``eps``: strain amplitude over delta0.
+    stepper : str
+        ``event`` or ``verlet``.
+    fraction : float
+        Verlet's dt in units of ``1/sqrt(K)``.
+
+    Returns
+    -------
+    dict
+        ``q``, ``speed`` (engine, granules per unit time), ``linear`` (the linearised
+        lattice's packet), ``group_velocity`` (eq. (3)), ``energy_error``.
+    """
+    delta0, count = MODE_DELTA0, PACKET_COUNT
+    i = np.arange(count)
+    w, vg = float(frequency(q, delta0)), float(group_velocity(q, delta0))
+    envelope = amplitude * delta0 / (2.0 * math.sin(q / 2.0)) * np.exp(
+        -0.5 * ((i - PACKET_START) / PACKET_WIDTH) ** 2)
+    u0, v0 = envelope * np.cos(q * i), w * envelope * np.sin(q * i)
+    t_end = PACKET_TRAVEL / vg
+    run, output = {"stepper": "event", "t_end": t_end}, {"dt": t_end}
+    if stepper == "verlet":
+        run = {"stepper": "verlet", "t_end": t_end, "dt": fraction / sound_speed(delta0)}
+        output = {"every": 1_000_000}
+    data = _data(folder, delta0, count, [float(v) for v in v0], run, output)
+    data["granules"]["gap"] = [float(g) for g in np.diff(u0) - delta0]
+    data["walls"]["left"]["gap"] = float(u0[0] - delta0)
+    data["walls"]["right"]["gap"] = float(-u0[-1] - delta0)
+    result = _run(data, f"packet q={q:.4g}, {stepper}")
+    t = float(result.t[-1])
+    u_end = result.x_final - np.asarray(result.x)[0] + u0
+    u_lin, v_lin = linear_lattice(delta0, u0, v0, np.array([t]))
+
+    def centroid(u, v):
+        density = (w * u) ** 2 + v ** 2
+        return float(i @ density / density.sum())
+
+    start = centroid(u0, v0)
+    return {"q": q, "speed": (centroid(u_end, result.v_final) - start) / t,
+            "linear": (centroid(u_lin[0], v_lin[0]) - start) / t, "group_velocity": vg,
+            "energy_error": float(result.energy.balance_error)}
 
 
 def struck_pulse(folder: Path, delta0: float, stepper: str, half: bool = False) -> dict:
@@ -371,6 +466,23 @@ def _modes(folder: Path) -> dict:
     return out
 
 
+def _packets(folder: Path) -> dict:
+    """Every packet of :data:`PACKET_QS` at :data:`AMPLITUDE` (event) and at ten times it
+    (the anharmonic change's size, over 100 at AMPLITUDE); Verlet (dt, dt/2) at pi/2."""
+    out = {}
+    for q in PACKET_QS:
+        d = {"event": packet_speed(folder, q, AMPLITUDE, "event"),
+             "loud": packet_speed(folder, q, 10 * AMPLITUDE, "event")}
+        d["anharmonic_estimate"] = abs(d["loud"]["speed"] / d["loud"]["linear"] - 1.0) / 100.0
+        if q == PACKET_QS[1]:
+            d["verlet"] = packet_speed(folder, q, AMPLITUDE, "verlet")
+            half = packet_speed(folder, q, AMPLITUDE, "verlet", VERLET_FRACTION / 2)
+            d["verlet_error_estimate"] = 4.0 / 3.0 * abs(d["verlet"]["speed"] - half["speed"]) \
+                / d["verlet"]["linear"]
+        out[f"{q / math.pi:g}"] = d
+    return out
+
+
 def _sound(folder: Path) -> dict:
     """Sound speed ``omega_1 / (2 sin(q_1/2))`` from mode 1 at each overlap of
     :data:`SOUND_DELTA0S` (event stepper)."""
@@ -411,7 +523,8 @@ def _pulse_rows(p: dict, what: str, references: dict) -> list:
     return rows
 
 
-def _rows(modes: dict, sound: dict, amplitude: dict, cross: dict, constant: float) -> list:
+def _rows(modes: dict, packets: dict, sound: dict, amplitude: dict, cross: dict,
+          constant: float) -> list:
     """The table."""
     rows = []
     for j, d in modes.items():
@@ -420,6 +533,15 @@ def _rows(modes: dict, sound: dict, amplitude: dict, cross: dict, constant: floa
                         d["event"]["omega"], d["event"]["reference"], LATTICE))
         rows.append(Row(f"omega({q}), delta0={MODE_DELTA0:g}, Verlet dt={VERLET_FRACTION}/c0",
                         d["verlet"]["omega"], d["event"]["reference"], LATTICE))
+    for key, d in packets.items():
+        e, what = d["event"], f"group velocity (packet), q=pi*{key}, delta0={MODE_DELTA0:g}"
+        rows.append(Row(f"{what}, eps={AMPLITUDE:g}, event", e["speed"], e["linear"],
+                        LINEAR_PACKET))
+        rows.append(Row(f"{what}, eps={AMPLITUDE:g}, event", e["speed"], e["group_velocity"],
+                        "v_g = sqrt(K) cos(q/2), eq. (3): a packet of width 20 lags it"))
+        if "verlet" in d:
+            rows.append(Row(f"{what}, Verlet dt={VERLET_FRACTION}/c0", d["verlet"]["speed"],
+                            e["linear"], LINEAR_PACKET))
     for delta0, d in sound.items():
         rows.append(Row(f"sound speed omega_1/(2 sin(q_1/2)), delta0={float(delta0):g}, event",
                         d["c"], d["c0"], "linearised lattice c0 = sqrt(1.5) delta0^(1/4) (exact)"))
@@ -455,17 +577,18 @@ def compute(folder: Path) -> Outcome:
     -------
     Outcome
         Its table and (``data``) every number behind it, with the error estimates
-        (``anharmonic_estimate``, ``verlet_error_estimate`` per mode; ``error_estimate``
-        of each Verlet pulse speed).
+        (``anharmonic_estimate``, ``verlet_error_estimate`` per mode and packet;
+        ``error_estimate`` of each Verlet pulse speed).
     """
     constant = solve_travelling_wave().speed_constant
     modes = _modes(folder)
+    packets = _packets(folder)
     sound = _sound(folder)
     amplitude = {repr(eps): mode_frequency(folder, MODE_DELTA0, 1, eps, "event")
                  for eps in AMPLITUDES}
     cross = _crossover(folder)
-    rows = _rows(modes, sound, amplitude, cross, constant)
-    data = {"modes": modes, "sound": sound, "amplitude": amplitude, "crossover": cross,
+    rows = _rows(modes, packets, sound, amplitude, cross, constant)
+    data = {"modes": modes, "packets": packets, "sound": sound, "amplitude": amplitude, "crossover": cross,
             "wave_constant": constant, "mode_delta0": MODE_DELTA0, "mode_count": MODE_COUNT}
     return Outcome(rows=rows, data=_finite(data))
 
@@ -482,7 +605,7 @@ def _finite(value):
 
 
 def figure(outcome: Outcome, path: Path) -> None:
-    """Two panels: the measured omega(q) on the lattice's dispersion curve, and the pulse
+    """Two panels: the measured omega(q) and group velocities on the lattice's curves, and the pulse
     speed over c0 and over ``C v_max^(1/5)`` against ``v_max / (c0 delta0)``.
 
     Parameters
@@ -504,8 +627,12 @@ def figure(outcome: Outcome, path: Path) -> None:
         a.plot([m[s]["q"] for m in d["modes"].values()],
                [m[s]["omega"] / c0 for m in d["modes"].values()], mark, ms=6,
                label=f"engine, {s}")
+    a.plot(q, np.cos(q / 2.0), "k--", lw=1, label=r"$v_g / c_0 = \cos(q/2)$")
+    a.plot([p["event"]["q"] for p in d["packets"].values()],
+           [p["event"]["speed"] / c0 for p in d["packets"].values()], "s", ms=6,
+           label="engine, packet centroid (event)")
     a.set_xlabel("q (radians per granule)")
-    a.set_ylabel(r"$\omega / c_0$")
+    a.set_ylabel(r"$\omega / c_0$,  $v_g / c_0$")
     a.legend(fontsize=8)
     ev = [p for p in d["crossover"]["event"] if p["delta0"] > 0]
     rho = np.array([p["rho"] for p in ev])
