@@ -428,7 +428,9 @@ def struck_pulse(folder: Path, delta0: float, stepper: str, half: bool = False) 
     v0, count = float(base["granules"]["velocity"][0]), int(base["granules"]["count"])
     c0, wave = sound_speed(delta0), NESTERENKO_CONSTANT * (0.68 * v0) ** 0.2  # an estimate
     frame = 1.0 / (FRAMES_PER_GRANULE * max(c0, wave))
-    t_end = frame * FRAMES_PER_GRANULE * (LAST + 8)
+    # past the last fitted granule's peak, which lags the front by up to ~10 granules
+    # near rho ~ 0.1, and before the wall's reflection comes back to it
+    t_end = frame * FRAMES_PER_GRANULE * (LAST + 30)
     run, output = {"stepper": "event", "t_end": t_end}, {"dt": frame}
     if stepper == "verlet":
         per = 4 if half else 2
@@ -437,6 +439,10 @@ def struck_pulse(folder: Path, delta0: float, stepper: str, half: bool = False) 
     result = _run(_data(folder, delta0, count, {0: v0}, run, output),
                   f"struck, delta0={delta0:g}, {stepper}")
     fit = dg.pulse_speed(result, FIRST, LAST)
+    peaks, _ = dg.peak_times(result, list(range(FIRST, LAST + 1)))
+    if not np.all(np.diff(peaks) > 0.0):  # a granule's largest velocity is not its pulse's
+        raise RuntimeError(f"precompressed: struck, delta0={delta0:g}, {stepper}: the peak "
+                           f"times over granules {FIRST}..{LAST} do not increase")
     out = {"delta0": delta0, "speed": fit.speed, "v_max": fit.v_peak, "c0": c0,
            "rho": fit.v_peak / velocity_scale(delta0) if delta0 > 0 else math.inf,
            "linear": math.nan, "energy_error": float(result.energy.balance_error)}
