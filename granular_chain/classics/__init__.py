@@ -6,17 +6,19 @@ the engine, in a table of rows (quantity, engine, reference, relative
 difference, source). ``granular-chain classics`` lists them and runs them;
 docs/classics.md has one section per experiment.
 
-=================  ===========================================================
-module             contents
-=================  ===========================================================
-``table``          :class:`Row` and the table's text, CSV and JSON forms
-``experiment``     :class:`Experiment` (name, title, scenes, rows, figure), :class:`Outcome`
-``registry``       :data:`EXPERIMENTS`, by name
-``hertz_wave``     the exact discrete travelling wave (Petviashvili iteration)
-``chain_ode``      an independent DOP853 integration of a frictionless chain
-``solitary_wave``  experiment ``solitary_wave``
-``newtons_cradle`` experiment ``newtons_cradle``
-=================  ===========================================================
+========================  =========================================================================
+module                    contents
+========================  =========================================================================
+``table``                 the :class:`Row` and the table's text, CSV and JSON forms
+``experiment``            :class:`Experiment` (name, title, scenes, rows, figure), :class:`Outcome`
+``registry``              :data:`EXPERIMENTS`, by name
+``hertz_wave``            the exact discrete travelling wave (Petviashvili iteration)
+``chain_ode``             an independent DOP853 integration of a chain (with Coulomb friction)
+``solitary_wave``         experiment ``solitary_wave``
+``newtons_cradle``        experiment ``newtons_cradle``
+``precompressed``         experiment ``precompressed``
+``backscatter_friction``  experiment ``backscatter_friction``
+========================  =========================================================================
 """
 
 from .experiment import SCENES, Experiment, Outcome

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from . import backscatter_friction, newtons_cradle, solitary_wave
+from . import backscatter_friction, newtons_cradle, precompressed, solitary_wave
 from .experiment import Experiment
 
 __all__ = ["EXPERIMENTS", "experiment"]
 
 #: name -> Experiment, in the order ``granular-chain classics`` lists them.
 EXPERIMENTS = {e.name: e for e in (solitary_wave.EXPERIMENT, newtons_cradle.EXPERIMENT,
-                                   backscatter_friction.EXPERIMENT)}
+                                   precompressed.EXPERIMENT, backscatter_friction.EXPERIMENT)}
 
 
 def experiment(name: str) -> Experiment:
