@@ -18,6 +18,7 @@ tolerance ten times tighter (:func:`reference_error`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -46,6 +47,10 @@ class ChainSolution:
         Right-hand-side evaluations DOP853 took.
     rtol : float
         The tolerance it ran at (relative and absolute).
+    t_samples : ndarray, shape (S,), optional
+        The sample times asked for (``t_eval``), those reached.
+    v_samples : ndarray, shape (S, N), optional
+        Velocities at them (DOP853's dense output, of the method's order).
     """
 
     t_end: float
@@ -54,10 +59,12 @@ class ChainSolution:
     overlaps: np.ndarray
     evaluations: int
     rtol: float
+    t_samples: Optional[np.ndarray] = None
+    v_samples: Optional[np.ndarray] = None
 
 
 def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
-                    rtol=1e-13) -> ChainSolution:
+                    rtol=1e-13, t_eval=None) -> ChainSolution:
     """Integrate eq. (1) from ``(x0, v0)`` to ``t_end`` with DOP853.
 
     Parameters
@@ -76,6 +83,8 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
         End time.
     rtol : float
         DOP853's relative and absolute tolerance.
+    t_eval : array_like, shape (S,), optional
+        Increasing times at which to sample the velocities (as frames).
 
     Returns
     -------
@@ -100,20 +109,32 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
 
     y = np.concatenate([np.asarray(x0, float), np.asarray(v0, float)])
     t, evaluations, fired = 0.0, 0, set()
+    wanted = None if t_eval is None else np.asarray(t_eval, float)
+    samples_t, samples_v = [], []
     while t < t_end:
+        # the samples in this piece: a piece holds those up to its end, included
+        ahead = None if wanted is None else wanted[
+            ((wanted >= t) if t == 0.0 else (wanted > t)) & (wanted <= t_end)]
         # restarted at every contact's opening and closing: each piece is smooth
         # inside, so the error control never steps across a kink of the force
         sol = solve_ivp(rhs, (t, t_end), y, method="DOP853", rtol=rtol, atol=rtol, first_step=FIRST_STEP,
+                        dense_output=ahead is not None,
                         events=[_contact_event(i, reach[i], count, t, y, i in fired)
                                 for i in range(count - 1)])
         if not sol.success:
             raise RuntimeError(f"DOP853: {sol.message}")
         evaluations += int(sol.nfev)
         t, y = float(sol.t[-1]), sol.y[:, -1]
+        if ahead is not None:
+            ahead = ahead[ahead <= t]
+            samples_t.append(ahead)
+            samples_v.append(sol.sol(ahead)[count:].T if ahead.size else np.empty((0, count)))
         fired = {i for i, hit in enumerate(sol.t_events) if hit.size}
+    sampled = {} if wanted is None else {"t_samples": np.concatenate(samples_t),
+                                         "v_samples": np.concatenate(samples_v)}
     return ChainSolution(t_end=t, x=y[:count], v=y[count:],
                          overlaps=reach - np.diff(y[:count]), evaluations=evaluations,
-                         rtol=rtol)
+                         rtol=rtol, **sampled)
 
 
 def _contact_event(i: int, reach: float, count: int, t0: float, y0: np.ndarray,
