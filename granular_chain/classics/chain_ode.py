@@ -18,7 +18,6 @@ tolerance ten times tighter (:func:`reference_error`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -59,8 +58,8 @@ class ChainSolution:
     overlaps: np.ndarray
     evaluations: int
     rtol: float
-    t_samples: Optional[np.ndarray] = None
-    v_samples: Optional[np.ndarray] = None
+    t_samples: np.ndarray | None = None
+    v_samples: np.ndarray | None = None
 
 
 def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
