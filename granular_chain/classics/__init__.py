@@ -16,6 +16,7 @@ module                    contents
 ``chain_ode``             an independent DOP853 integration of a chain (with Coulomb friction)
 ``solitary_wave``         experiment ``solitary_wave``
 ``newtons_cradle``        experiment ``newtons_cradle``
+``dimers``                experiment ``dimers``
 ``precompressed``         experiment ``precompressed``
 ``backscatter_friction``  experiment ``backscatter_friction``
 ========================  =========================================================================

@@ -51,6 +51,10 @@ class ChainSolution:
         Right-hand-side evaluations DOP853 took.
     rtol : float
         The tolerance it ran at (relative and absolute).
+    t_samples : ndarray, shape (S,), optional
+        The sample times asked for (``t_eval``), those reached.
+    v_samples : ndarray, shape (S, N), optional
+        Velocities at them (DOP853's dense output, of the method's order).
     """
 
     t_end: float
@@ -59,10 +63,12 @@ class ChainSolution:
     overlaps: np.ndarray
     evaluations: int
     rtol: float
+    t_samples: np.ndarray | None = None
+    v_samples: np.ndarray | None = None
 
 
 def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
-                    rtol=1e-13, eta=0.0, stop_contact=None) -> ChainSolution:
+                    rtol=1e-13, eta=0.0, stop_contact=None, t_eval=None) -> ChainSolution:
     """Integrate eq. (1), with eq. (2) where ``eta`` is set, from ``(x0, v0)`` with DOP853.
 
     Parameters
@@ -85,6 +91,8 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
         Coulomb friction force on each granule, eq. (2), kinetic and static alike.
     stop_contact : int, optional
         End at the first opening of this contact instead of at ``t_end``.
+    t_eval : array_like, shape (S,), optional
+        Increasing times at which to sample the velocities (as frames).
 
     Returns
     -------
@@ -100,18 +108,22 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
                    np.broadcast_to(np.asarray(eta, float), len(mass)))
     y = np.concatenate([np.asarray(x0, float), np.asarray(v0, float)])
     t, evaluations, fired, released = 0.0, 0, set(), set()
+    samples = _Samples(t_eval, t_end, chain.count)
     while t < t_end:
         # restarted at every contact's opening and closing and every change of a
         # granule's sliding: each piece is smooth inside, so the error control never
         # steps across a kink of the force
         slide = chain.sliding(y, released)
         events = chain.events(t, y, slide, fired)
+        ahead = samples.ahead(t)
         sol = solve_ivp(chain.rhs(slide), (t, t_end), y, method="DOP853", rtol=rtol,
-                        atol=rtol, first_step=FIRST_STEP, events=events)
+                        atol=rtol, first_step=FIRST_STEP, events=events,
+                        dense_output=ahead is not None)
         if not sol.success:
             raise RuntimeError(f"DOP853: {sol.message}")
         evaluations += int(sol.nfev)
         t, y = float(sol.t[-1]), sol.y[:, -1].copy()
+        samples.take(sol, ahead, t)
         fired = {i for i, hit in enumerate(sol.t_events) if hit.size}
         if stop_contact is not None and stop_contact in fired \
                 and y[chain.count + stop_contact] < y[chain.count + stop_contact + 1]:
@@ -124,7 +136,39 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
                 y[chain.count + g] = 0.0  # a sliding granule came to rest
     return ChainSolution(t_end=t, x=y[:chain.count], v=y[chain.count:],
                          overlaps=chain.reach - np.diff(y[:chain.count]),
-                         evaluations=evaluations, rtol=rtol)
+                         evaluations=evaluations, rtol=rtol, **samples.result())
+
+
+class _Samples:
+    """Velocities sampled at times asked for (``t_eval``), piece by piece, from DOP853's
+    dense output."""
+
+    def __init__(self, t_eval, t_end: float, count: int):
+        self.wanted = None if t_eval is None else np.asarray(t_eval, float)
+        self.t_end, self.count, self.t, self.v = t_end, count, [], []
+
+    def ahead(self, t: float):
+        """The sample times of a piece starting at ``t`` (those up to its end, at most
+        ``t_end``), or None when no samples are asked for."""
+        if self.wanted is None:
+            return None
+        after = (self.wanted >= t) if t == 0.0 else (self.wanted > t)
+        return self.wanted[after & (self.wanted <= self.t_end)]
+
+    def take(self, sol, ahead, t: float) -> None:
+        """Keep the samples of the piece ``sol`` that ended at ``t``."""
+        if ahead is None:
+            return
+        ahead = ahead[ahead <= t]
+        self.t.append(ahead)
+        self.v.append(sol.sol(ahead)[self.count:].T if ahead.size else
+                      np.empty((0, self.count)))
+
+    def result(self) -> dict:
+        """``t_samples`` and ``v_samples`` for ChainSolution (empty without samples)."""
+        if self.wanted is None:
+            return {}
+        return {"t_samples": np.concatenate(self.t), "v_samples": np.concatenate(self.v)}
 
 
 @dataclass(frozen=True)
