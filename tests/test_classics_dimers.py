@@ -117,12 +117,12 @@ def test_event_stepper_matches_dop853(outcome):
 
 @pytest.mark.slow
 def test_located_mass_ratios_match_the_reference(outcome):
-    """Resonances: the engine's parabola vertex equals the reference's within what the decay's
+    """Resonances and the anti-resonance: the engine's parabola vertex equals the reference's within what the decay's
     differences (reference error plus event tolerance) move a vertex by, and Brent's
     optimum is the reference's vertex within the parabola's own error (measured on
     the engine: its vertex against Brent's optimum) plus Brent's xatol."""
     h = outcome.data["parabola_step"]
-    for key in ("resonance 1", "resonance 2"):
+    for key in ("resonance 1", "resonance 2", "anti-resonance 1"):
         d = outcome.data["located"][key]
         own = d["reference_error"]["rate"]
         curvature = abs(d["second_difference"])

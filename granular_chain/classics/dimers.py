@@ -25,7 +25,7 @@ through the largest frame and two either side):
   on the bracket the scan gives;
 - the reference: the same chain integrated by scipy's DOP853 (:mod:`.chain_ode`,
   rtol 1e-11, velocities sampled on the same frame times), the same peak
-  reading; a resonance's mass ratio is the vertex of the parabola through the
+  reading; an extremum's mass ratio is the vertex of the parabola through the
   reference's decay at ``epsilon* - h, epsilon*, epsilon* + h`` (h = 2e-4), the
   parabola's own error measured on the engine's decay (its vertex against
   Brent's optimum); the reference's own error by running it again at rtol 1e-12;
@@ -301,25 +301,23 @@ def _vertex(rates: tuple, centre: float, h: float) -> float:
     return float(centre - 0.5 * h * (high - low) / (high - 2.0 * mid + low))
 
 
-def _locate(folder: Path, run, kind: str, bracket: tuple, vertex: bool = True) -> dict:
-    """One extremum: the engine's (Brent), the parabola through the engine's decay at
-    ``eps* - h, eps*, eps* + h`` and (``vertex``) the reference's, the reference at
-    ``eps*`` and its own error there (against :data:`TIGHTER_RTOL`)."""
+def _locate(folder: Path, run, kind: str, bracket: tuple) -> dict:
+    """One extremum: the engine's (Brent), the parabolas through the engine's and the
+    reference's decay at ``eps* - h, eps*, eps* + h``, the reference at ``eps*`` and its
+    own error there (against :data:`TIGHTER_RTOL`)."""
     found = refine(run, bracket, 1.0 if kind == "resonance" else -1.0)
     centre, h = found["eps"], PARABOLA_STEP
     points = (centre - h, centre, centre + h)
     engine = [run(e) for e in points]
     # DOP853 stops five frames after the engine's last peak read (the reading needs two)
     stop = max(r["times"][LAST_CELL] for r in engine) + 5 * _frame_dt(folder)
-    reference = [reference_run(folder, e, t_stop=stop) if vertex or e == centre else None
-                 for e in points]
+    reference = [reference_run(folder, e, t_stop=stop) for e in points]
     tight = reference_run(folder, centre, TIGHTER_RTOL, stop)
     return {"kind": kind, "bracket": list(bracket), **found,
             "engine": engine[1], "reference": reference[1],
             "second_difference": engine[0]["rate"] - 2 * engine[1]["rate"] + engine[2]["rate"],
             "engine_vertex": _vertex(tuple(r["rate"] for r in engine), centre, h),
-            "reference_vertex": (_vertex(tuple(r["rate"] for r in reference), centre, h)
-                                 if vertex else None),
+            "reference_vertex": _vertex(tuple(r["rate"] for r in reference), centre, h),
             "reference_error": {q: abs(tight[q] - reference[1][q])
                                 for q in ("rate", "transmission")}}
 
@@ -366,7 +364,7 @@ def compute(folder: Path) -> Outcome:
     located = {"resonance 1": _locate(folder, run, "resonance", found["resonances"][0]),
                "resonance 2": _locate(folder, run, "resonance", found["resonances"][1]),
                "anti-resonance 1": _locate(folder, run, "anti-resonance",
-                                           found["anti_resonances"][0], vertex=False)}
+                                           found["anti_resonances"][0])}
     verlet = {name: _verlet(folder, located[name]["eps"])
               for name in ("resonance 1", "anti-resonance 1")}
     rows = [row for name, d in located.items() for row in _rows(name, d)]
@@ -381,9 +379,7 @@ def _rows(name: str, d: dict) -> list:
     ev, ref = d["engine"], d["reference"]
     where = f"at eps*={d['eps']:.5f}"
     parabola = f"vertex of the parabola through eps*, eps*+-{PARABOLA_STEP:g}"
-    vertex, source = ((d["reference_vertex"], f"DOP853 rtol=1e-11, {parabola} (computed)")
-                      if d["reference_vertex"] is not None else
-                      (d["engine_vertex"], f"event, {parabola} (consistency, not independent)"))
+    vertex, source = d["reference_vertex"], f"DOP853 rtol=1e-11, {parabola} (computed)"
     rows = [Row(f"{name}: mass ratio eps* ({'most' if 'anti' in name else 'least'} decay), "
                 f"event + Brent", d["eps"], vertex, source),
             Row(f"{name}: decay rate per cell {where}, event", ev["rate"], ref["rate"], REFERENCE),
@@ -431,8 +427,7 @@ def figure(outcome: Outcome, path: Path) -> None:
     for name, d in located.items():
         style = "v" if d["kind"] == "resonance" else "^"
         a.plot(d["eps"], d["engine"]["rate"], style, color="k", ms=7)
-        if d["reference_vertex"] is not None:
-            a.plot(d["reference_vertex"], d["reference"]["rate"], "x", color="tab:blue", ms=9)
+        a.plot(d["reference_vertex"], d["reference"]["rate"], "x", color="tab:blue", ms=9)
         a.annotate(name, (d["eps"], d["engine"]["rate"]), textcoords="offset points",
                    xytext=(4, 6), fontsize=7)
         b.plot(d["eps"], d["engine"]["transmission"], style, color="k", ms=7)
