@@ -35,12 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..extras import require
 from ..paper.coulomb_on_granule1 import iib_backscatter_threshold_eta_exact, iib_collision_exact
 from ..paper.coulomb_on_granule2 import iia_v1s
 from ..simulate import simulate
 from .chain_ode import integrate_chain
-from .experiment import Experiment, Outcome, scene_of
+from .experiment import Experiment, Outcome, figure_file, scene_of
 from .table import Row
 
 __all__ = ["EXPERIMENT", "SCENE", "CASES", "COUNTS", "EXPONENTS", "ETAS", "VERLET_DT",
@@ -296,31 +295,26 @@ def figure(outcome: Outcome, path: Path) -> None:
     path : Path
         The PNG written.
     """
-    require("matplotlib", "granular-chain classics").use("Agg")
-    plt = require("matplotlib.pyplot", "granular-chain classics")
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
-    for ax, case in zip(axes, CASES):
-        for n, style in zip(EXPONENTS, ("-", "--")):
-            for count, colour in zip(COUNTS, ("C0", "C1", "C2")):
-                pts = [p for p in outcome.data["points"]
-                       if p["case"] == case and p["n"] == n and p["N"] == count]
-                ax.plot([p["eta"] for p in pts], [-p["event"] for p in pts], style + "o",
-                        color=colour, ms=3, label=f"N = {count}, n = {n:g}")
-        grid = np.linspace(0.0, max(ETAS[case]), 41)[1:]
-        ax.plot(grid, [-_paper(case, e) for e in grid], ":", color="k", lw=1,
-                label="paper, N = 2, n = 2")
-        if case == "striker":  # where the striker is held before it leaves
-            edges = outcome.data["edges"]
-            ax.plot([e["event"] for e in edges], np.zeros(len(edges)), "kx", ms=5,
-                    label="edge of backscattering")
-        ax.set_xlabel(r"friction $\eta$")
-        ax.set_title(CASES[case], fontsize=9)
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel(r"backscatter speed $-v_\mathrm{striker}/v_0$ at separation")
-    axes[1].legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    with figure_file(path, 2, (9, 3.8)) as (fig, axes):
+        for ax, case in zip(axes, CASES):
+            for n, style in zip(EXPONENTS, ("-", "--")):
+                for count, colour in zip(COUNTS, ("C0", "C1", "C2")):
+                    pts = [p for p in outcome.data["points"]
+                           if p["case"] == case and p["n"] == n and p["N"] == count]
+                    ax.plot([p["eta"] for p in pts], [-p["event"] for p in pts], style + "o",
+                            color=colour, ms=3, label=f"N = {count}, n = {n:g}")
+            grid = np.linspace(0.0, max(ETAS[case]), 41)[1:]
+            ax.plot(grid, [-_paper(case, e) for e in grid], ":", color="k", lw=1,
+                    label="paper, N = 2, n = 2")
+            if case == "striker":  # where the striker is held before it leaves
+                edges = outcome.data["edges"]
+                ax.plot([e["event"] for e in edges], np.zeros(len(edges)), "kx", ms=5,
+                        label="edge of backscattering")
+            ax.set_xlabel(r"friction $\eta$")
+            ax.set_title(CASES[case], fontsize=9)
+            ax.grid(alpha=0.3)
+        axes[0].set_ylabel(r"backscatter speed $-v_\mathrm{striker}/v_0$ at separation")
+        axes[1].legend(fontsize=6)
 
 
 EXPERIMENT = Experiment(

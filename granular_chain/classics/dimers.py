@@ -50,10 +50,9 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..extras import require
 from ..simulate import simulate
 from .chain_ode import integrate_chain
-from .experiment import Experiment, Outcome, scene_of
+from .experiment import Experiment, Outcome, figure_file, scene_of
 from .table import Row
 
 __all__ = ["EXPERIMENT", "SCENE", "EPSILONS", "FIRST_CELL", "LAST_CELL", "VERLET_DT",
@@ -417,40 +416,35 @@ def figure(outcome: Outcome, path: Path) -> None:
     path : Path
         The PNG written.
     """
-    require("matplotlib", "granular-chain classics").use("Agg")
-    plt = require("matplotlib.pyplot", "granular-chain classics")
     s, located = outcome.data["scan"], outcome.data["located"]
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    a.plot(s["eps"], s["rate"], "o-", ms=3, color="tab:red", label="engine (event), scan")
-    b.plot(s["eps"], s["transmission"], "o-", ms=3, color="tab:red",
-           label="engine (event), scan")
-    for name, d in located.items():
-        style = "v" if d["kind"] == "resonance" else "^"
-        a.plot(d["eps"], d["engine"]["rate"], style, color="k", ms=7)
-        a.plot(d["reference_vertex"], d["reference"]["rate"], "x", color="tab:blue", ms=9)
-        a.annotate(name, (d["eps"], d["engine"]["rate"]), textcoords="offset points",
-                   xytext=(4, 6), fontsize=7)
-        b.plot(d["eps"], d["engine"]["transmission"], style, color="k", ms=7)
-    a.plot([], [], "kv", label="located by Brent (engine)")
-    a.plot([], [], "x", color="tab:blue", label="DOP853 reference (parabola's vertex)")
-    a.axhline(0.0, color="0.6", lw=0.8)
-    a.set_yscale("symlog", linthresh=1e-5)  # the resonances' decay is 1e-7 .. 1e-5
-    ticks = [0.15, 0.2, 0.3, 0.4, 0.6, 1.0]
-    a.set_xscale("log")
-    a.set_xticks(ticks, [f"{x:g}" for x in ticks])
-    a.set_xlabel(r"mass ratio $\varepsilon$ (light / heavy)")
-    a.set_ylabel(f"decay of ln v_p per cell (cells {FIRST_CELL}..{LAST_CELL})")
-    a.legend(fontsize=8)
-    b.set_xscale("log")
-    b.set_xticks(ticks, [f"{x:g}" for x in ticks])
-    b.set_xlabel(r"mass ratio $\varepsilon$ (light / heavy)")
-    b.set_ylabel(f"transmission $v_p^2$ at cell {LAST_CELL}")
-    b.legend(fontsize=8)
-    fig.suptitle("Dimer chain struck by a heavy granule (scenarios/classics/dimers.yaml)",
-                 fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    with figure_file(path, 2, (11, 4)) as (fig, (a, b)):
+        a.plot(s["eps"], s["rate"], "o-", ms=3, color="tab:red", label="engine (event), scan")
+        b.plot(s["eps"], s["transmission"], "o-", ms=3, color="tab:red",
+               label="engine (event), scan")
+        for name, d in located.items():
+            style = "v" if d["kind"] == "resonance" else "^"
+            a.plot(d["eps"], d["engine"]["rate"], style, color="k", ms=7)
+            a.plot(d["reference_vertex"], d["reference"]["rate"], "x", color="tab:blue", ms=9)
+            a.annotate(name, (d["eps"], d["engine"]["rate"]), textcoords="offset points",
+                       xytext=(4, 6), fontsize=7)
+            b.plot(d["eps"], d["engine"]["transmission"], style, color="k", ms=7)
+        a.plot([], [], "kv", label="located by Brent (engine)")
+        a.plot([], [], "x", color="tab:blue", label="DOP853 reference (parabola's vertex)")
+        a.axhline(0.0, color="0.6", lw=0.8)
+        a.set_yscale("symlog", linthresh=1e-5)  # the resonances' decay is 1e-7 .. 1e-5
+        ticks = [0.15, 0.2, 0.3, 0.4, 0.6, 1.0]
+        a.set_xscale("log")
+        a.set_xticks(ticks, [f"{x:g}" for x in ticks])
+        a.set_xlabel(r"mass ratio $\varepsilon$ (light / heavy)")
+        a.set_ylabel(f"decay of ln v_p per cell (cells {FIRST_CELL}..{LAST_CELL})")
+        a.legend(fontsize=8)
+        b.set_xscale("log")
+        b.set_xticks(ticks, [f"{x:g}" for x in ticks])
+        b.set_xlabel(r"mass ratio $\varepsilon$ (light / heavy)")
+        b.set_ylabel(f"transmission $v_p^2$ at cell {LAST_CELL}")
+        b.legend(fontsize=8)
+        fig.suptitle("Dimer chain struck by a heavy granule (scenarios/classics/dimers.yaml)",
+                     fontsize=10)
 
 
 EXPERIMENT = Experiment(

@@ -3,14 +3,16 @@ returning its table, and a figure."""
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
+from ..extras import require
 from ..scene import Scene, load_scene
 from .table import Row
 
-__all__ = ["Experiment", "Outcome", "SCENES", "scene_of"]
+__all__ = ["Experiment", "Outcome", "SCENES", "scene_of", "figure_file"]
 
 #: Where the experiments' scenes are: ``scenarios/classics/`` of the source tree, installed
 #: with the package as ``granular_chain/classics/scenes/`` (a link to it in the source tree).
@@ -103,3 +105,38 @@ def scene_of(folder: Path, name: str, overrides=()) -> Scene:
     Scene
     """
     return load_scene(Path(folder) / name, list(overrides))
+
+
+@contextmanager
+def figure_file(path: Path, panels: int = 1, size: tuple = (7.0, 4.2)) -> Iterator[tuple]:
+    """A matplotlib figure of ``panels`` side by side, laid out, written to ``path``
+    (PNG, 120 dpi) and closed when the block ends (closed, unwritten, on an error).
+
+    Parameters
+    ----------
+    path : Path
+        The PNG written.
+    panels : int
+        Axes in one row.
+    size : tuple of float
+        Width and height, inches.
+
+    Yields
+    ------
+    tuple
+        ``(figure, axes)``: one Axes for one panel, else an array of them.
+
+    Raises
+    ------
+    MissingExtraError
+        matplotlib is not installed (the ``plots`` extra).
+    """
+    require("matplotlib", "granular-chain classics").use("Agg")
+    plt = require("matplotlib.pyplot", "granular-chain classics")
+    fig, axes = plt.subplots(1, panels, figsize=size)
+    try:
+        yield fig, axes
+        fig.tight_layout()
+        fig.savefig(path, dpi=120)
+    finally:
+        plt.close(fig)

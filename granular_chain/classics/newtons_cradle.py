@@ -24,10 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..extras import require
 from ..simulate import simulate
 from .chain_ode import integrate_chain
-from .experiment import Experiment, Outcome, scene_of
+from .experiment import Experiment, Outcome, figure_file, scene_of
 from .table import Row
 
 __all__ = ["EXPERIMENT", "COUNTS", "VERLET_DT", "REFERENCE_RTOL", "final_velocities",
@@ -164,21 +163,16 @@ def figure(outcome: Outcome, path: Path) -> None:
     path : Path
         The PNG written.
     """
-    require("matplotlib", "granular-chain classics").use("Agg")
-    plt = require("matplotlib.pyplot", "granular-chain classics")
-    fig, ax = plt.subplots(figsize=(7, 4.2))
-    for key, d in outcome.data.items():
-        v = np.asarray(d["event"]["v"])
-        ax.plot(np.arange(v.size) - v.size + 1, v, "o-", ms=3, label=f"N = {key}")
-    ax.set_yscale("symlog", linthresh=1e-3)
-    ax.set_xlabel("ball, counted from the last (0 = last)")
-    ax.set_ylabel(r"final velocity / $v_0$")
-    ax.set_title("Newton's cradle, Hertz contacts (event stepper)", fontsize=10)
-    ax.legend(fontsize=7, ncol=3)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    with figure_file(path, 1, (7, 4.2)) as (fig, ax):
+        for key, d in outcome.data.items():
+            v = np.asarray(d["event"]["v"])
+            ax.plot(np.arange(v.size) - v.size + 1, v, "o-", ms=3, label=f"N = {key}")
+        ax.set_yscale("symlog", linthresh=1e-3)
+        ax.set_xlabel("ball, counted from the last (0 = last)")
+        ax.set_ylabel(r"final velocity / $v_0$")
+        ax.set_title("Newton's cradle, Hertz contacts (event stepper)", fontsize=10)
+        ax.legend(fontsize=7, ncol=3)
+        ax.grid(alpha=0.3)
 
 
 EXPERIMENT = Experiment(

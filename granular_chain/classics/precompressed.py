@@ -52,10 +52,9 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .. import diagnostics as dg
-from ..extras import require
 from ..scene import read_scene_data, scene_from_dict
 from ..simulate import simulate
-from .experiment import Experiment, Outcome
+from .experiment import Experiment, Outcome, figure_file
 from .hertz_wave import NESTERENKO_CONSTANT, solve_travelling_wave
 from .table import Row
 
@@ -621,46 +620,41 @@ def figure(outcome: Outcome, path: Path) -> None:
     path : Path
         The PNG written.
     """
-    require("matplotlib", "granular-chain classics").use("Agg")
-    plt = require("matplotlib.pyplot", "granular-chain classics")
     d = outcome.data
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    q = np.linspace(0.0, math.pi, 200)
-    c0 = sound_speed(d["mode_delta0"])
-    a.plot(q, frequency(q, d["mode_delta0"]) / c0, "k-", lw=1, label=r"$2|\sin(q/2)|$ (lattice)")
-    a.plot(q, q, "k:", lw=1, label=r"$q$ (sound)")
-    for s, mark in (("event", "o"), ("verlet", "x")):
-        a.plot([m[s]["q"] for m in d["modes"].values()],
-               [m[s]["omega"] / c0 for m in d["modes"].values()], mark, ms=6,
-               label=f"engine, {s}")
-    a.plot(q, np.cos(q / 2.0), "k--", lw=1, label=r"$v_g / c_0 = \cos(q/2)$")
-    a.plot([p["event"]["q"] for p in d["packets"].values()],
-           [p["event"]["speed"] / c0 for p in d["packets"].values()], "s", ms=6,
-           label="engine, packet centroid (event)")
-    a.set_xlabel("q (radians per granule)")
-    a.set_ylabel(r"$\omega / c_0$,  $v_g / c_0$")
-    a.legend(fontsize=8)
-    ev = [p for p in d["crossover"]["event"] if p["delta0"] > 0]
-    rho = np.array([p["rho"] for p in ev])
-    b.semilogx(rho, [p["speed"] / p["c0"] for p in ev], "o", color="tab:red",
-               label="engine (event): speed / $c_0$")
-    lin = [p for p in ev if p["rho"] < LINEAR_BELOW]
-    b.semilogx([p["rho"] for p in lin], [p["linear"] / p["c0"] for p in lin], "k+", ms=8,
-               label="linearised lattice struck (same fit)")
-    line = np.geomspace(rho.min(), rho.max(), 100)
-    b.semilogx(line, [long_wave_speed(r) for r in line], "k-", lw=1,
-               label="long-wave solitary wave (Nesterenko)")
-    b.semilogx(rho, [p["speed"] / (d["wave_constant"] * p["v_max"] ** 0.2) for p in ev],
-               "s", color="tab:blue", ms=4, label=r"engine: speed / $C v_{max}^{1/5}$")
-    b.axhline(1.0, color="grey", lw=0.5)
-    b.set_xlabel(r"$v_{max} / (c_0 \delta_0)$")
-    b.set_ylabel("pulse speed, scaled")
-    b.set_ylim(0.5, 2.0)
-    b.legend(fontsize=7)
-    fig.suptitle("Precompressed Hertz chain (scenarios/classics/precompressed.yaml)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    with figure_file(path, 2, (11, 4)) as (fig, (a, b)):
+        q = np.linspace(0.0, math.pi, 200)
+        c0 = sound_speed(d["mode_delta0"])
+        a.plot(q, frequency(q, d["mode_delta0"]) / c0, "k-", lw=1, label=r"$2|\sin(q/2)|$ (lattice)")
+        a.plot(q, q, "k:", lw=1, label=r"$q$ (sound)")
+        for s, mark in (("event", "o"), ("verlet", "x")):
+            a.plot([m[s]["q"] for m in d["modes"].values()],
+                   [m[s]["omega"] / c0 for m in d["modes"].values()], mark, ms=6,
+                   label=f"engine, {s}")
+        a.plot(q, np.cos(q / 2.0), "k--", lw=1, label=r"$v_g / c_0 = \cos(q/2)$")
+        a.plot([p["event"]["q"] for p in d["packets"].values()],
+               [p["event"]["speed"] / c0 for p in d["packets"].values()], "s", ms=6,
+               label="engine, packet centroid (event)")
+        a.set_xlabel("q (radians per granule)")
+        a.set_ylabel(r"$\omega / c_0$,  $v_g / c_0$")
+        a.legend(fontsize=8)
+        ev = [p for p in d["crossover"]["event"] if p["delta0"] > 0]
+        rho = np.array([p["rho"] for p in ev])
+        b.semilogx(rho, [p["speed"] / p["c0"] for p in ev], "o", color="tab:red",
+                   label="engine (event): speed / $c_0$")
+        lin = [p for p in ev if p["rho"] < LINEAR_BELOW]
+        b.semilogx([p["rho"] for p in lin], [p["linear"] / p["c0"] for p in lin], "k+", ms=8,
+                   label="linearised lattice struck (same fit)")
+        line = np.geomspace(rho.min(), rho.max(), 100)
+        b.semilogx(line, [long_wave_speed(r) for r in line], "k-", lw=1,
+                   label="long-wave solitary wave (Nesterenko)")
+        b.semilogx(rho, [p["speed"] / (d["wave_constant"] * p["v_max"] ** 0.2) for p in ev],
+                   "s", color="tab:blue", ms=4, label=r"engine: speed / $C v_{max}^{1/5}$")
+        b.axhline(1.0, color="grey", lw=0.5)
+        b.set_xlabel(r"$v_{max} / (c_0 \delta_0)$")
+        b.set_ylabel("pulse speed, scaled")
+        b.set_ylim(0.5, 2.0)
+        b.legend(fontsize=7)
+        fig.suptitle("Precompressed Hertz chain (scenarios/classics/precompressed.yaml)", fontsize=10)
 
 
 EXPERIMENT = Experiment(

@@ -23,17 +23,15 @@ apart from the engine:
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
 from .. import diagnostics as dg
-from ..extras import require
 from ..scene import read_scene_data, scene_from_dict
 from ..simulate import simulate
 from .chain_ode import integrate_chain
-from .experiment import Experiment, Outcome, scene_of
+from .experiment import Experiment, Outcome, figure_file, scene_of
 from .hertz_wave import NESTERENKO_CONSTANT, TravellingWave, solve_travelling_wave
 from .table import Row
 
@@ -273,32 +271,27 @@ def figure(outcome: Outcome, path: Path) -> None:
     path : Path
         The PNG written.
     """
-    require("matplotlib", "granular-chain classics").use("Agg")
-    plt = require("matplotlib.pyplot", "granular-chain classics")
     d = outcome.data
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
-    a.plot(d["exact_profile"]["x"], d["exact_profile"]["v"], "k-", lw=1.5,
-           label="exact discrete wave")
-    p = d["struck"]["event"]["profile"]
-    a.plot(p["x"][::20], p["v"][::20], "o", ms=3, color="tab:red",
-           label="engine: granule 80 after the striker (event)")
-    a.set_xlabel("distance to the peak (granules)")
-    a.set_ylabel(r"$v / v_{max}$")
-    a.legend(fontsize=8, loc="upper left")
-    s = d["scaling"]
-    v0 = np.asarray(s["v0"])
-    b.loglog(v0, np.asarray(s["constant"]) * v0 ** 0.2, "o", color="tab:red",
-             label="engine (event), struck chain of 40")
-    line = np.geomspace(v0[0], v0[-1], 50)
-    b.loglog(line, s["constant"][list(V0S).index(1.0)] * line ** 0.2, "k-", lw=1,
-             label=r"$c(v_0 = 1)\,v_0^{1/5}$ (slope %.10f)" % s["slope"])
-    b.set_xlabel(r"striker speed $v_0$")
-    b.set_ylabel("wave speed (granules per unit time)")
-    b.legend(fontsize=8)
-    fig.suptitle("Hertz solitary wave (scenarios/classics/solitary_wave.yaml)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    with figure_file(path, 2, (11, 4)) as (fig, (a, b)):
+        a.plot(d["exact_profile"]["x"], d["exact_profile"]["v"], "k-", lw=1.5,
+               label="exact discrete wave")
+        p = d["struck"]["event"]["profile"]
+        a.plot(p["x"][::20], p["v"][::20], "o", ms=3, color="tab:red",
+               label="engine: granule 80 after the striker (event)")
+        a.set_xlabel("distance to the peak (granules)")
+        a.set_ylabel(r"$v / v_{max}$")
+        a.legend(fontsize=8, loc="upper left")
+        s = d["scaling"]
+        v0 = np.asarray(s["v0"])
+        b.loglog(v0, np.asarray(s["constant"]) * v0 ** 0.2, "o", color="tab:red",
+                 label="engine (event), struck chain of 40")
+        line = np.geomspace(v0[0], v0[-1], 50)
+        b.loglog(line, s["constant"][list(V0S).index(1.0)] * line ** 0.2, "k-", lw=1,
+                 label=r"$c(v_0 = 1)\,v_0^{1/5}$ (slope %.10f)" % s["slope"])
+        b.set_xlabel(r"striker speed $v_0$")
+        b.set_ylabel("wave speed (granules per unit time)")
+        b.legend(fontsize=8)
+        fig.suptitle("Hertz solitary wave (scenarios/classics/solitary_wave.yaml)", fontsize=10)
 
 
 EXPERIMENT = Experiment(
