@@ -16,6 +16,7 @@ module             contents
 ``chain_ode``      an independent DOP853 integration of a frictionless chain
 ``solitary_wave``  experiment ``solitary_wave``
 ``newtons_cradle`` experiment ``newtons_cradle``
+``heavy_striker``  experiment ``heavy_striker``
 =================  ===========================================================
 """
 
