@@ -17,6 +17,7 @@ module             contents
 ``solitary_wave``  experiment ``solitary_wave``
 ``newtons_cradle`` experiment ``newtons_cradle``
 ``heavy_striker``  experiment ``heavy_striker``
+``tapered``        experiment ``tapered``
 =================  ===========================================================
 """
 

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from . import heavy_striker, newtons_cradle, solitary_wave
+from . import heavy_striker, newtons_cradle, solitary_wave, tapered
 from .experiment import Experiment
 
 __all__ = ["EXPERIMENTS", "experiment"]
 
 #: name -> Experiment, in the order ``granular-chain classics`` lists them.
 EXPERIMENTS = {e.name: e for e in (solitary_wave.EXPERIMENT, newtons_cradle.EXPERIMENT,
-                                   heavy_striker.EXPERIMENT)}
+                                   heavy_striker.EXPERIMENT, tapered.EXPERIMENT)}
 
 
 def experiment(name: str) -> Experiment:
