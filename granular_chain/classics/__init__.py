@@ -15,8 +15,10 @@ module                    contents
 ``hertz_wave``            the exact discrete travelling wave (Petviashvili iteration)
 ``chain_ode``             an independent DOP853 integration of a chain (with Coulomb friction)
 ``solitary_wave``         experiment ``solitary_wave``
+``heavy_striker``         experiment ``heavy_striker``
 ``newtons_cradle``        experiment ``newtons_cradle``
 ``dimers``                experiment ``dimers``
+``tapered``               experiment ``tapered``
 ``precompressed``         experiment ``precompressed``
 ``backscatter_friction``  experiment ``backscatter_friction``
 ========================  =========================================================================

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-__all__ = ["ChainSolution", "integrate_chain", "reference_error"]
+__all__ = ["ChainSolution", "integrate_chain", "integrate_chain_at", "reference_error"]
 
 #: DOP853's first step of each smooth piece, scene time units: a contact that has
 #: just closed pushes as t^(n-1), which the starting-step guess (from the first
@@ -283,3 +283,35 @@ def reference_error(solution: ChainSolution, tighter: ChainSolution) -> float:
         ``max |v - v_tight| / max |v_tight|`` (dimensionless).
     """
     return float(np.max(np.abs(solution.v - tighter.v)) / np.max(np.abs(tighter.v)))
+
+
+def integrate_chain_at(mass, x0, v0, reach, times, k=1.0, n=2.5,
+                       rtol=1e-13) -> list:
+    """Integrate eq. (1) from ``(x0, v0)`` and return the state at each of ``times``.
+
+    The integration is carried on from each time to the next (the equations are
+    autonomous), so the states cost one run to the last time.
+
+    Parameters
+    ----------
+    mass, x0, v0, reach, k, n, rtol
+        As :func:`integrate_chain`.
+    times : sequence of float
+        Increasing times (scene units), the first >= 0.
+
+    Returns
+    -------
+    list of ChainSolution
+        One per time, ``t_end`` the time itself, ``evaluations`` counted from 0.
+    """
+    x, v = np.asarray(x0, float), np.asarray(v0, float)
+    now, evaluations, out = 0.0, 0, []
+    for t in times:
+        if t > now:
+            sol = integrate_chain(mass, x, v, reach, k=k, n=n, t_end=t - now, rtol=rtol)
+            x, v, now = sol.x, sol.v, float(t)
+            evaluations += sol.evaluations
+        out.append(ChainSolution(t_end=float(t), x=x, v=v,
+                                 overlaps=np.asarray(reach, float) - np.diff(x),
+                                 evaluations=evaluations, rtol=rtol))
+    return out

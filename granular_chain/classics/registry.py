@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
-from . import backscatter_friction, dimers, newtons_cradle, precompressed, solitary_wave
+from . import (backscatter_friction, dimers, heavy_striker, newtons_cradle, precompressed,
+               solitary_wave, tapered)
 from .experiment import Experiment
 
 __all__ = ["EXPERIMENTS", "experiment"]
 
 #: name -> Experiment, in the order ``granular-chain classics`` lists them.
-EXPERIMENTS = {e.name: e for e in (solitary_wave.EXPERIMENT, newtons_cradle.EXPERIMENT,
-                                   dimers.EXPERIMENT, precompressed.EXPERIMENT,
-                                   backscatter_friction.EXPERIMENT)}
+EXPERIMENTS = {e.name: e for e in (
+    solitary_wave.EXPERIMENT, heavy_striker.EXPERIMENT, newtons_cradle.EXPERIMENT,
+    dimers.EXPERIMENT, tapered.EXPERIMENT, precompressed.EXPERIMENT,
+    backscatter_friction.EXPERIMENT)}
 
 
 def experiment(name: str) -> Experiment:
