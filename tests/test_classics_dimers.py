@@ -81,15 +81,24 @@ def outcome():
 @pytest.mark.slow
 def test_resonances_and_anti_resonance_in_order(outcome):
     """The first anti-resonance lies above the first resonance, which lies above the
-    second; each inside the scan's bracket; the leading pulse's peaks were read."""
-    located = outcome.data["located"]
+    second; each inside the scan's bracket and an extremum of the engine's decay there:
+    below (resonance) or above (anti-resonance) every scanned decay in its bracket, with
+    the second difference over eps* +- h of the matching sign; the leading pulse's peaks
+    were read."""
+    located, scanned = outcome.data["located"], outcome.data["scan"]
     anti, first, second = (located[k]["eps"] for k in
                            ("anti-resonance 1", "resonance 1", "resonance 2"))
     assert 1.0 > anti > first > second > 0.0
+    eps, rate = np.asarray(scanned["eps"]), np.asarray(scanned["rate"])
     for d in located.values():
         low, high = d["bracket"]
         assert low < d["eps"] < high
-    assert outcome.data["scan"]["ordered"]
+        sign = 1.0 if d["kind"] == "resonance" else -1.0
+        inside = rate[(eps >= low) & (eps <= high)]
+        assert inside.size == 3
+        assert np.all(sign * (inside - d["engine"]["rate"]) > 0.0)
+        assert sign * d["second_difference"] > 0.0
+    assert scanned["ordered"]
 
 
 @pytest.mark.slow
