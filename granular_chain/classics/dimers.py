@@ -52,7 +52,7 @@ from scipy.optimize import minimize_scalar
 
 from ..simulate import simulate
 from .chain_ode import integrate_chain
-from .experiment import Experiment, Outcome, figure_file, scene_of
+from .experiment import Experiment, Outcome, figure_file, final_energy, scene_of
 from .table import Row
 
 __all__ = ["EXPERIMENT", "SCENE", "EPSILONS", "FIRST_CELL", "LAST_CELL", "VERLET_DT",
@@ -184,12 +184,10 @@ def engine_run(folder: Path, eps: float, stepper: str = "event", dt: float = VER
     t, v = _on_cadence(np.asarray(result.t), np.asarray(result.v), frame_dt)
     out = pulse_decay(t, v)
     m = np.where(np.arange(v.shape[1]) % 2 == 0, 1.0, eps)
-    overlap = np.maximum(2.0 * float(scene.granules.radius) - np.diff(result.x_final), 0.0)
-    n, k = float(scene.contacts.exponent), float(scene.contacts.stiffness)
     e0 = 0.5 * float(m[0] * v[0, 0] ** 2)
-    energy = 0.5 * np.sum(m * result.v_final ** 2) + np.sum(k / n * overlap ** n)
     out.update(momentum=float(np.sum(m * result.v_final) / (m[0] * v[0, 0])),
-               energy=float(energy / e0), energy_error=float(result.energy.balance_error))
+               energy=final_energy(result) / e0,
+               energy_error=float(result.energy.balance_error))
     return out
 
 

@@ -12,7 +12,7 @@ from ..extras import require
 from ..scene import Scene, load_scene
 from .table import Row
 
-__all__ = ["Experiment", "Outcome", "SCENES", "scene_of", "figure_file"]
+__all__ = ["Experiment", "Outcome", "SCENES", "scene_of", "figure_file", "final_energy"]
 
 #: Where the experiments' scenes are: ``scenarios/classics/`` of the source tree, installed
 #: with the package as ``granular_chain/classics/scenes/`` (a link to it in the source tree).
@@ -105,6 +105,31 @@ def scene_of(folder: Path, name: str, overrides=()) -> Scene:
     Scene
     """
     return load_scene(Path(folder) / name, list(overrides))
+
+
+def final_energy(result) -> float:
+    """Kinetic plus contact energy at the end of a run, from the engine's own energy
+    ledger (its last frame, which is the final state).
+
+    Parameters
+    ----------
+    result : Result
+        A finished run.
+
+    Returns
+    -------
+    float
+        Energy, scene units.
+
+    Raises
+    ------
+    RuntimeError
+        The run's last frame is not its final state.
+    """
+    if float(result.t[-1]) != float(result.t_final):
+        raise RuntimeError(f"the last frame (t = {result.t[-1]}) is not the run's end "
+                           f"(t = {result.t_final}): no ledger entry for the final state")
+    return float(result.energy.kinetic[-1] + result.energy.potential[-1])
 
 
 @contextmanager

@@ -43,9 +43,9 @@ from .. import diagnostics as dg
 from ..scene import read_scene_data, scene_from_dict
 from ..simulate import simulate
 from .chain_ode import integrate_chain_at
-from .experiment import Experiment, Outcome, figure_file
+from .experiment import Experiment, Outcome, figure_file, final_energy
 from .hertz_wave import solve_travelling_wave
-from .table import Row
+from .table import Row, conservation_rows
 
 __all__ = ["EXPERIMENT", "SCENE", "RATIOS", "PROBE", "FIT", "WAVES", "THRESHOLD",
            "VERLET_DT", "REF_COUNT", "REF_T", "REF_PROBE", "REFERENCE_RTOL", "run_train",
@@ -143,15 +143,13 @@ def run_train(folder: Path, ratio: float, stepper: str, dt: float = VERLET_DT) -
     speeds = [float(np.polyfit([trains[g][k][0] for g in trains], list(trains), 1)[0])
               for k in range(waves)]
     mass = np.r_[ratio, np.ones(v.shape[1] - 1)]
-    overlap = np.maximum(4.0 - np.diff(result.x_final), 0.0)  # radius 2
-    energy = 0.5 * np.sum(mass * result.v_final ** 2) + 0.4 * np.sum(overlap ** 2.5)
     return {"amplitude": [p[1] for p in probe[:waves]],
             "valley": [probe[k][2] / probe[k + 1][1] for k in range(waves - 1)],
             "drift": [probe[k][1] / first[k][1] - 1.0 for k in range(waves)],
             "speed": speeds, "waves": int(sum(p[1] > THRESHOLD for p in probe)),
             "train": [p[1] for p in probe], "striker": float(result.v_final[0]),
             "momentum": float(mass @ result.v_final) / ratio,
-            "energy": float(energy) / (0.5 * ratio),
+            "energy": final_energy(result) / (0.5 * ratio),
             "energy_error": float(result.energy.balance_error)}
 
 
@@ -249,12 +247,7 @@ def _rows(ratio: float, d: dict, constant: float) -> list:
              for k in range(len(ev["amplitude"]) - 1)]
     rows.append(Row(f"{tag} striker v/v0 at t_end, Verlet dt={VERLET_DT}", vv["striker"],
                     ev["striker"], "engine, event stepper"))
-    for s in ("event", "verlet"):
-        rows.append(Row(f"{tag} momentum at t_end / M v0, {s}", d[s]["momentum"], 1.0,
-                        "conservation"))
-        rows.append(Row(f"{tag} energy at t_end / (M v0^2/2), {s}", d[s]["energy"], 1.0,
-                        "conservation"))
-    return rows
+    return rows + conservation_rows(tag, d, "M v0", "(M v0^2/2)")
 
 
 def compute(folder: Path) -> Outcome:

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..simulate import simulate
 from .chain_ode import integrate_chain
-from .experiment import Experiment, Outcome, figure_file, scene_of
+from .experiment import Experiment, Outcome, figure_file, final_energy, scene_of
 from .table import Row
 
 __all__ = ["EXPERIMENT", "COUNTS", "VERLET_DT", "REFERENCE_RTOL", "final_velocities",
@@ -72,9 +72,7 @@ def final_velocities(folder: Path, count: int, stepper: str, dt: float = VERLET_
     result = simulate(scene_of(folder, SCENE, over), progress=False)
     v, x = result.v_final, result.x_final
     gaps = np.diff(x) - 2.0  # radius 1
-    contact = 0.4 * np.sum(np.maximum(-gaps, 0.0) ** 2.5)
-    return {"v": v.tolist(), "momentum": float(v.sum()),
-            "energy": float(0.5 * np.sum(v ** 2) + contact),
+    return {"v": v.tolist(), "momentum": float(v.sum()), "energy": final_energy(result),
             "energy_error": float(result.energy.balance_error),
             "separated": bool(np.all(gaps > 0.0) and np.all(np.diff(v) >= 0.0))}
 

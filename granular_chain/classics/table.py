@@ -10,7 +10,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Sequence
 
-__all__ = ["Row", "COLUMNS", "format_table", "table_csv", "table_json"]
+__all__ = ["Row", "COLUMNS", "conservation_rows", "format_table", "table_csv", "table_json"]
 
 #: The columns, in order.
 COLUMNS = ("quantity", "engine", "reference", "rel_diff", "source")
@@ -131,3 +131,34 @@ def table_json(name: str, title: str, rows: Sequence[Row], extra: dict) -> str:
     """
     return json.dumps({"experiment": name, "title": title,
                        "rows": [r.as_dict() for r in rows], "data": extra}, indent=2) + "\n"
+
+
+def conservation_rows(prefix: str, runs: dict, momentum_unit: str, energy_unit: str,
+                      steppers=("event", "verlet")) -> list:
+    """Momentum and energy at the run's end over their initial values, each stepper's.
+
+    Parameters
+    ----------
+    prefix : str
+        What the rows are of (``"q=0.1"``, ``"M/m=5"``).
+    runs : dict
+        stepper -> a run's numbers with ``momentum`` and ``energy`` (ratios to the
+        initial values, dimensionless).
+    momentum_unit, energy_unit : str
+        The initial values' names, for the quantity column.
+    steppers : sequence of str
+        The keys of ``runs`` to report, in order.
+
+    Returns
+    -------
+    list of Row
+        Two rows per stepper, against 1 (source "conservation").
+    """
+    rows = []
+    for s in steppers:
+        rows.append(Row(f"{prefix} momentum at t_end / {momentum_unit}, {s}",
+                        runs[s]["momentum"], 1.0, "conservation"))
+        rows.append(Row(f"{prefix} energy at t_end / {energy_unit}, {s}", runs[s]["energy"],
+                        1.0, "conservation"))
+    return rows
+

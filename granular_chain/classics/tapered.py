@@ -37,8 +37,8 @@ from ..model import hertz_stiffness
 from ..scene import read_scene_data, scene_from_dict
 from ..simulate import simulate
 from .chain_ode import integrate_chain_at
-from .experiment import Experiment, Outcome, figure_file
-from .table import Row
+from .experiment import Experiment, Outcome, figure_file, final_energy
+from .table import Row, conservation_rows
 
 __all__ = ["EXPERIMENT", "SCENE", "TAPERS", "COUNT", "MIDDLE", "V0", "VERLET_DT",
            "REFERENCE_RTOL", "chain", "run_tapered", "reference_tapered", "compute", "figure"]
@@ -128,12 +128,11 @@ def run_tapered(folder: Path, q: float, stepper: str, dt: float = VERLET_DT) -> 
                np.max(np.asarray(result.v)[:, MIDDLE])]
     v = result.v_final
     overlap = np.maximum(c["reach"] - np.diff(result.x_final), 0.0)
-    energy = 0.5 * np.sum(c["mass"] * v ** 2) + 0.4 * np.sum(c["k"] * overlap ** 2.5)
     return {"times": [float(tf[0]), float(tf[1]), float(tv[0])],
             "force_first": float(fp[0]), "force_last": float(fp[1]),
             "v_middle": float(vp[0]) / V0, "v_last": float(v[-1]) / V0,
             "separated": bool(overlap[-1] <= 0.0 and v[-1] > v[-2]),
-            "momentum": float(c["mass"] @ v) / V0, "energy": float(energy) / (0.5 * V0 ** 2),
+            "momentum": float(c["mass"] @ v) / V0, "energy": final_energy(result) / (0.5 * V0 ** 2),
             "energy_error": float(result.energy.balance_error), "v_final": v.tolist(),
             "reading": [float(abs(a - b) / a) for a, b in zip((fp[0], fp[1], vp[0]), largest)]}
 
@@ -212,12 +211,7 @@ def _rows(q: float, d: dict) -> list:
         for s, name in (("event", "event"), ("verlet", f"Verlet dt={VERLET_DT}")):
             rows.append(Row(f"q={q:g} {what}, {name}", d[s][key], d["reference"][key],
                             REFERENCE))
-    for s in ("event", "verlet"):
-        rows.append(Row(f"q={q:g} momentum at t_end / (m0 v0), {s}", d[s]["momentum"], 1.0,
-                        "conservation"))
-        rows.append(Row(f"q={q:g} energy at t_end / E0, {s}", d[s]["energy"], 1.0,
-                        "conservation"))
-    return rows
+    return rows + conservation_rows(f"q={q:g}", d, "(m0 v0)", "E0")
 
 
 def compute(folder: Path) -> Outcome:
