@@ -7,6 +7,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import time
 
 import numpy as np
 import pytest
@@ -69,6 +70,40 @@ def finish(proc: subprocess.Popen, what: str, seconds: float = HUNG_AFTER, log=N
         err = open(log, errors="replace").read()
     pytest.fail(f"hung: {what} had not ended after {seconds:.0f} s; its stacks:\n{err}")
 
+
+def wait_until_stepping(proc: subprocess.Popen, parent, name: str, seconds: float = HUNG_AFTER):
+    """Wait until the ``granular-chain run --out parent/name`` started as ``proc`` is
+    stepping: its partial folder's trajectory has grown past its first frames (a
+    compile or a load from numba's cache, however slow on a loaded machine, is over
+    then; a fixed sleep is not enough there).
+
+    Parameters
+    ----------
+    proc : subprocess.Popen
+        The run; the test fails with its stderr if it ends first.
+    parent : pathlib.Path
+        The folder the run writes its ``.NAME.partial-*`` folder in.
+    name : str
+        The output folder's name.
+    seconds : float
+        How long to wait before taking the run for hung.
+    """
+    first = None
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            pytest.fail(f"run ended early: {proc.returncode} {proc.stderr.read()}")
+        for path in parent.glob(f".{name}.partial-*/trajectory.h5"):
+            try:
+                size = path.stat().st_size
+            except FileNotFoundError:
+                continue
+            if first is None:
+                first = size
+            elif size > first:
+                return
+        time.sleep(0.05)
+    pytest.fail(f"the run had not begun stepping after {seconds:.0f} s")
 
 # The suite draws the same examples on every run (a check that lands must not
 # depend on luck); HYPOTHESIS_PROFILE=explore draws fresh ones to look for new

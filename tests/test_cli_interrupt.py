@@ -10,11 +10,12 @@ import json
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 from xml.etree import ElementTree
 
 import pytest
+
+from conftest import wait_until_stepping
 
 ROOT = Path(__file__).resolve().parents[1]
 CHAIN = ROOT / "scenarios" / "chain_friction.yaml"
@@ -41,26 +42,13 @@ def _start(out: Path, *extra):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=out.parent)
 
 
-def _wait_until_stepping(proc, parent: Path, name: str, timeout=30.0):
-    """Wait for the partial folder, then long enough for compilation to be over."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            pytest.fail(f"run ended early: {proc.returncode} {proc.stderr.read()}")
-        if any(p.name.startswith(f".{name}.partial-") for p in parent.iterdir()):
-            time.sleep(1.5)  # the kernel is cached on disk: by now it is stepping
-            return
-        time.sleep(0.05)
-    pytest.fail("the run never created its partial output folder")
-
-
 @pytest.mark.parametrize("sig, code, name", [(signal.SIGINT, 130, "SIGINT"),
                                              (signal.SIGTERM, 143, "SIGTERM")])
 def test_signal_leaves_a_run_marked_incomplete(tmp_path, sig, code, name):
     out = tmp_path / "long_run"
     proc = _start(out, "--vtk", "--csv")
     try:
-        _wait_until_stepping(proc, tmp_path, out.name)
+        wait_until_stepping(proc, tmp_path, out.name)
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=60)
     finally:
@@ -91,7 +79,7 @@ def test_interrupted_rerun_keeps_the_previous_output(tmp_path):
     before = (out / "summary.json").read_text()
     proc = _start(out, "--overwrite")
     try:
-        _wait_until_stepping(proc, tmp_path, out.name)
+        wait_until_stepping(proc, tmp_path, out.name)
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=60)
     finally:

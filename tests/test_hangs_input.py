@@ -11,11 +11,10 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
-from conftest import finish
+from conftest import finish, wait_until_stepping
 
 from granular_chain.cli import main
 
@@ -252,10 +251,8 @@ def hung_up_run(tmp_path_factory):
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             cwd=folder)
     try:
-        while not _catches_sighup(proc.pid):  # start-up (and a first compile) first
-            assert proc.poll() is None, proc.stderr.read()
-            time.sleep(0.01)
-        time.sleep(0.5)
+        wait_until_stepping(proc, folder, "out")
+        assert _catches_sighup(proc.pid)
         proc.send_signal(signal.SIGHUP)
         _, _, err = finish(proc, "run after SIGHUP")
     finally:
