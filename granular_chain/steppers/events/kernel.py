@@ -204,8 +204,9 @@ def _step(law, coulomb, viscous, dissip, settings, clock, model, state, work, fr
                 work.contact_flag[j] = 0
             for i in range(N):
                 work.granule_flag[i] = 0
-            return modal_step(law, coulomb, viscous, settings, clock, model, state, work,
-                              frames)
+            # The closed form is of n = 2 alone: its compiled code is the same for
+            # every law's kernel (one compile per friction set, not one per law).
+            return modal_step(coulomb, viscous, settings, clock, model, state, work, frames)
     return taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, work, frames)
 
 

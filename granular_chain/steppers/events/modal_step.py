@@ -240,7 +240,7 @@ def _first_event(coulomb, p, h, state, work):
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def _frames_in_mode(law, coulomb, viscous, t_new, settings, clock, model, state, work, frames):
+def _frames_in_mode(coulomb, viscous, t_new, settings, clock, model, state, work, frames):
     """Frames at the output cadence up to t_new, from the mode's closed form.
     Returns Pause.LOG_FULL when the buffers are full (state untouched), else GOING."""
     p = work.modal[0]
@@ -263,14 +263,14 @@ def _frames_in_mode(law, coulomb, viscous, t_new, settings, clock, model, state,
         v[0] = v0
         v[1] = v1
         overlap[1] = d
-        record_frame(law, tf, clock, model, state, frames, wc, wv)
+        record_frame(LAW_LINEAR, tf, clock, model, state, frames, wc, wv)
         u[0], u[1], v[0], v[1], overlap[1] = su0, su1, sv0, sv1, sd
         clock.next_frame += 1
     return GOING
 
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
-def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frames):
+def modal_step(coulomb, viscous, settings, clock, model, state, work, frames):
     """One step of the exact modal solution from the mode's start (record
     ``work.modal``, filled by :func:`modal_n2.setup`).
 
@@ -279,8 +279,6 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
 
     Parameters
     ----------
-    law : int
-        Contact-law code (``laws.contact``; LAW_LINEAR for n = 2), a compile-time constant.
     coulomb : int
         Compile-time feature code: nonzero when some granule has Coulomb friction.
     viscous : int
@@ -328,7 +326,7 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
         t_new = t_end
         t_lo_new = 0.0
     if settings.frame_interval > 0.0:
-        code = _frames_in_mode(law, coulomb, viscous, t_new, settings, clock, model, state,
+        code = _frames_in_mode(coulomb, viscous, t_new, settings, clock, model, state,
                                work, frames)
         if code != GOING:
             return code, 0, 0.0, 0
@@ -351,7 +349,7 @@ def modal_step(law, coulomb, viscous, settings, clock, model, state, work, frame
         return Status.NONFINITE.value, 0, 0.0, 0
     if not event:
         if t_new >= t_end:
-            record_frame(law, t_end, clock, model, state, frames, 0.0, 0.0)
+            record_frame(LAW_LINEAR, t_end, clock, model, state, frames, 0.0, 0.0)
             return Status.T_END.value, 0, 0.0, 0
         return GOING, 0, 0.0, 0
     return GOING, 1, bh + bl, ncand
