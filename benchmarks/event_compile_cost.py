@@ -12,7 +12,11 @@ CPU seconds are the steadier figure.
 
 ``--shared`` adds one more process that compiles the chosen feature sets one after
 the other on a single empty cache, as a test suite does: functions the kernels
-share are compiled once there, so its sum can be below the sum of the rows.
+share are compiled once there, so its sum can be below the sum of the rows. Each
+kernel's compile there is also split by compiled function (numba's
+"numba:compile" events: CPU seconds of each function compiled, callees indented
+under their caller and included in its time; inlined functions are part of their
+caller's), which shows what a further feature set costs once the first is cached.
 
     PYTHONPATH=<checkout> python benchmarks/event_compile_cost.py [--repeats 1] [--only coulomb] [--shared]
 
@@ -36,11 +40,31 @@ FEATURES = {
     "viscous n=5/2": ({"viscous": 1e-2}, {"exponent": 2.5, "stiffness": 1.0}),
     "dashpot n=5/2": ({}, {"exponent": 2.5, "stiffness": 1.0,
                            "damping": {"model": "viscoelastic", "coefficient": 0.05}}),
+    "coulomb+viscous n=5/2": ({"kinetic": 1e-3, "static": 2e-3, "viscous": 1e-2},
+                              {"exponent": 2.5, "stiffness": 1.0}),
+    "frictionless n=2": ({}, {"exponent": 2.0, "stiffness": 1.0}),
 }
 
 CHILD = r"""
 import json, sys, time
+from numba.core import event
 import granular_chain as gc
+
+
+class Compiles(event.Listener):
+    # (depth, function, CPU s) of every function numba compiles, callees after callers
+    def __init__(self):
+        self.open, self.rows = [], []
+
+    def on_start(self, ev):
+        self.rows.append([len(self.open), ev.data["dispatcher"].py_func.__qualname__, 0.0])
+        self.open.append((len(self.rows) - 1, time.process_time()))
+
+    def on_end(self, ev):
+        row, c0 = self.open.pop()
+        self.rows[row][2] = time.process_time() - c0
+
+
 out = []
 for friction, contacts in json.loads(sys.argv[1]):
     scene = gc.scene_from_dict({"name": "c", "granules": {"count": 10, "mass": 1.0,
@@ -48,8 +72,11 @@ for friction, contacts in json.loads(sys.argv[1]):
         "contacts": contacts, "run": {"stepper": "event", "t_end": 0.1},
         "output": {"trajectory": False}})
     w0, c0 = time.perf_counter(), time.process_time()
-    gc.simulate(scene, progress=False)
-    out.append({"wall": time.perf_counter() - w0, "cpu": time.process_time() - c0})
+    watch = Compiles()
+    with event.install_listener("numba:compile", watch):
+        gc.simulate(scene, progress=False)
+    out.append({"wall": time.perf_counter() - w0, "cpu": time.process_time() - c0,
+                "functions": watch.rows})
 print(json.dumps(out))
 """
 
@@ -94,6 +121,11 @@ def main():
         out["shared_sum"] = {k: sum(r[k] for r in runs) for k in ("wall", "cpu")}
         print(f"{'one cache, in turn':22s} wall {out['shared_sum']['wall']:7.1f} s   "
               f"cpu {out['shared_sum']['cpu']:7.1f} s")
+        for name, r in out["shared"].items():
+            print(f"\n{name}: cpu {r['cpu']:.1f} s, by compiled function (>= 0.5 s):")
+            for depth, function, cpu in r["functions"]:
+                if cpu >= 0.5:
+                    print(f"  {'  ' * depth}{function:{40 - 2 * depth}s} {cpu:6.1f}")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(args.out).with_suffix(".json.tmp")
     tmp.write_text(json.dumps(out, indent=1) + "\n")

@@ -25,7 +25,7 @@ def verlet_near_one(ns):
     from granular_chain import scene_from_dict
     from granular_chain.model import build_model
     from granular_chain.simulate import default_dt
-    from granular_chain.steppers.verlet.driver import _DEFAULT_STEPS_PER_PERIOD
+    from granular_chain.steppers.verlet.timestep import _DEFAULT_STEPS_PER_PERIOD
     from granular_chain.two_granules import collide
     from granular_chain.two_granules.problem import two_granule_scene
 

@@ -44,6 +44,7 @@ def _drop_stale_kernels() -> None:
 
 _drop_stale_kernels()
 
+from .errors import SimulationError  # noqa: E402
 from .extras import MissingExtraError  # noqa: E402
 from .notices import (  # noqa: E402
     CompileNotice,
@@ -55,7 +56,7 @@ from .notices import (  # noqa: E402
 from .readback import read_run  # noqa: E402
 from .result import Event, Result, Status  # noqa: E402
 from .scene import Scene, SceneError, load_scene, scene_from_dict  # noqa: E402
-from .simulate import SimulationError, simulate  # noqa: E402
+from .simulate import simulate  # noqa: E402
 from .version import __version__  # noqa: E402
 
 __all__ = ["Scene", "SceneError", "load_scene", "scene_from_dict", "simulate", "Result",

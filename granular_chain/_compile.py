@@ -15,10 +15,14 @@ costs a fraction of a microsecond per call.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import contextvars
+import fcntl
 import hashlib
 import os
+import shutil
+import tempfile
 import time
 
 import numba
@@ -172,8 +176,6 @@ def _compile_lock(dispatcher, sig):
     if not folder:
         yield
         return
-    import fcntl
-
     name = f"{dispatcher.py_func.__module__}.{dispatcher.py_func.__qualname__}{sig}"
     path = os.path.join(folder, hashlib.sha1(name.encode()).hexdigest() + ".lock")
     try:
@@ -194,10 +196,6 @@ def share_compiling() -> None:
     set already), so that a kernel they all need first is compiled by one of them."""
     if os.environ.get(LOCK_DIR_ENV):
         return
-    import atexit
-    import shutil
-    import tempfile
-
     folder = tempfile.mkdtemp(prefix="granular-chain-compile-locks-")
     os.environ[LOCK_DIR_ENV] = folder
     atexit.register(shutil.rmtree, folder, True)

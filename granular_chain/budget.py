@@ -22,23 +22,23 @@ The memory model (bytes, N granules, F frames kept, P + 1 Taylor coefficients)::
                      (x, v, f per frame, in the list and once stacked: 48 N)
     writers          VTK 128 N, plots 64 bytes per space-time cell (<= 2e6 cells)
 
-The Verlet frame count follows the driver (``output.every``, ``output.dt`` or
-about 1000 frames); the event stepper's frames at event batches (N <= 64) grow
-with the events and are not estimated.
+Steps and frames are the run's :class:`~granular_chain.steppers.schedule.Schedule`,
+the one the steppers follow; the event stepper's frames at event batches
+(N <= 64) grow with the events and are not estimated.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass
 from typing import Optional
 
 from .errors import SimulationError
 from .model import build_model, scale_problem
-from .steppers.verlet.driver import default_dt
+from .steppers.schedule import Schedule, plan_run
+from .steppers.verlet.timestep import verlet_dt
 
-__all__ = ["Budget", "check_budget", "steps_and_dt", "available_memory", "estimate_memory"]
+__all__ = ["Budget", "check_budget", "available_memory", "estimate_memory"]
 
 VERLET_STATE_BYTES = 24 * 8
 FRAME_BYTES_PER_GRANULE = 48
@@ -47,9 +47,6 @@ EVENT_MAX_TERMS = 31  # Taylor order P <= 30 (steppers.events.series_order)
 _PLOT_CELL_BYTES = 64
 _PLOT_MAX_CELLS = 2_000_000
 _VTK_BYTES_PER_GRANULE = 128
-_DEFAULT_FRAMES = 1000  # as simulate._DEFAULT_FRAMES / events._DEFAULT_FRAMES
-_DEFAULT_FRAME_VALUES = 10_000_000
-_FRAMES_AT_EVENTS_MAX_N = 64
 #: Below this estimate (bytes) memory is not looked up (/proc/meminfo costs ~100 us).
 SMALL_RUN = 256 * 2 ** 20
 #: t_end / (shortest contact time) above which t + T == t in double precision.
@@ -63,7 +60,7 @@ class Budget:
     Attributes
     ----------
     steps : int or None
-        Verlet steps to t_end (None for the event stepper).
+        Verlet steps to t_end, at most run.max_steps (None for the event stepper).
     dt : float or None
         Verlet step used.
     frames : int
@@ -73,6 +70,8 @@ class Budget:
         asked for, and of memory available.
     model : Model or None
         The Model built for the checks (:func:`~granular_chain.simulate.simulate` runs it).
+    schedule : Schedule or None
+        The run's steps, frames and thermo lines (the steppers and writers follow it).
     """
 
     steps: Optional[int]
@@ -83,6 +82,7 @@ class Budget:
     writers: int
     available: int
     model: object = None  #: the Model built for the checks (simulate() runs it)
+    schedule: Optional[Schedule] = None
 
     @property
     def total(self) -> int:
@@ -111,30 +111,6 @@ def available_memory() -> int:
         return 1 << 62  # unknown: do not refuse on memory
 
 
-def steps_and_dt(t_end: float, dt: float) -> tuple[int, float, bool]:
-    """Whole steps that end exactly at ``t_end``.
-
-    Parameters
-    ----------
-    t_end, dt : float
-        Run length and requested step (same time unit), both > 0.
-
-    Returns
-    -------
-    n_steps : int
-        ceil(t_end / dt), not counting a last step shorter than 1e-12 dt.
-    dt_used : float
-        ``dt`` itself (bit for bit) when n_steps * dt equals t_end to 1e-12
-        relative; otherwise t_end / n_steps, slightly shorter than ``dt``.
-    shortened : bool
-        True when dt_used differs from dt.
-    """
-    n = max(1, int(math.ceil(t_end / dt * (1 - 1e-12))))
-    if abs(n * dt - t_end) <= 1e-12 * t_end:
-        return n, dt, False
-    return n, t_end / n, True
-
-
 def _gb(nbytes: float) -> str:
     """Bytes in the largest unit that keeps the number >= 1 (B, kB, MB, GB, TB)."""
     for unit, size in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
@@ -161,27 +137,6 @@ def _frame_bytes(n: int) -> int:
     return FRAME_BYTES_PER_GRANULE * n + FRAME_OVERHEAD
 
 
-def _verlet_every(scene, n_steps: int, dt: float) -> int:
-    """Steps between frames, as simulate._simulate_verlet chooses them."""
-    out, n = scene.output, scene.granules.count
-    if out.every is not None:
-        return out.every
-    if out.dt is not None:
-        return max(1, int(round(out.dt / dt)))
-    wanted = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // max(n, 1)))
-    return max(1, n_steps // wanted)
-
-
-def _event_frames(scene) -> int:
-    """Frames the event stepper records at its output.dt cadence (0 if none)."""
-    out, n = scene.output, scene.granules.count
-    if out.dt is not None:
-        return int(scene.run.t_end / out.dt) + 16
-    if n <= _FRAMES_AT_EVENTS_MAX_N or out.every is not None:
-        return 64  # the initial buffer; frames at event batches grow with the events
-    return max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // n)) + 16
-
-
 def _refuse(field: str, problem: str):
     return SimulationError(f"{field}: {problem}")
 
@@ -196,58 +151,6 @@ def _check_state_fits(scene, available: Optional[int]) -> None:
         raise _refuse("granules.count", (
             f"{n} granules need about {_gb(need)} for the {scene.run.stepper} stepper's "
             f"state and three frames alone, but {_gb(available)} of memory is available"))
-
-
-def _verlet_steps(scene, model) -> tuple[int, float]:
-    """(steps, dt) of a Verlet run; refuses dt > t_end and more steps than run.max_steps."""
-    run = scene.run
-    t_end = run.t_end
-    if run.dt is not None and run.dt > t_end:
-        raise _refuse("run.dt", f"{run.dt:g} is longer than the whole run, run.t_end = "
-                      f"{t_end:g}; use run.dt <= run.t_end")
-    if run.dt is not None:
-        dt, how = run.dt, ""
-    else:  # the driver's own default (contact time, dashpots, a sine wall's period)
-        dt = default_dt(model, t_end)
-        how = (f" (the default dt: 1/200 of the shortest contact time "
-               f"{model.shortest_period():.4g}, or less for dashpots or a driven wall)")
-    forced = _cadence_step(scene.output.dt, dt)
-    if forced < dt:
-        return _forced_steps(scene, dt, forced)
-    ratio = t_end / dt
-    if not ratio <= run.max_steps and (not run.stop_conditions or not ratio < 2 ** 62):
-        raise _refuse("run.max_steps", (
-            f"reaching run.t_end = {t_end:g} with run.dt = {dt:.4g}{how} takes {ratio:.4g} "
-            f"steps, more than run.max_steps = {run.max_steps}; raise run.max_steps or "
-            f"run.dt, or shorten run.t_end"))
-    n_steps = min(steps_and_dt(t_end, dt)[0], run.max_steps)
-    return n_steps, dt
-
-
-def _cadence_step(out_dt: Optional[float], dt: float) -> float:
-    """The step the Verlet driver takes so that frames fall on multiples of ``out_dt``
-    (``out_dt / ceil(out_dt / dt)``, as ``step_plan``); ``dt`` without output.dt."""
-    if out_dt is None:
-        return dt
-    per_frame = out_dt / dt
-    m = round(per_frame)
-    if m >= 1 and abs(m - per_frame) <= 1e-9 * per_frame:
-        return dt
-    return out_dt / math.ceil(per_frame)
-
-
-def _forced_steps(scene, dt: float, forced: float) -> tuple[int, float]:
-    """(steps, dt) of a run whose output.dt forces a step shorter than ``dt``; refuses
-    more steps than run.max_steps, naming output.dt."""
-    run = scene.run
-    ratio = run.t_end / forced
-    if not ratio <= run.max_steps and (not run.stop_conditions or not ratio < 2 ** 62):
-        raise _refuse("output.dt", (
-            f"{scene.output.dt:g} forces a step of {forced:.4g} (frames fall on its multiples; "
-            f"the step would be {dt:.4g}): reaching run.t_end = {run.t_end:g} takes "
-            f"{ratio:.4g} steps, more than run.max_steps = {run.max_steps}; raise output.dt "
-            f"or run.max_steps, or shorten run.t_end"))
-    return min(steps_and_dt(run.t_end, forced)[0], run.max_steps), forced
 
 
 def _check_time_resolution(scene, model) -> None:
@@ -280,15 +183,15 @@ def estimate_memory(scene, model, available: Optional[int] = None) -> Budget:
         Steps, dt, frames and bytes of the run.
     """
     n = scene.granules.count
-    if scene.run.stepper == "event":
-        steps, dt = None, None
-        frames = _event_frames(scene)
-    else:
-        steps, dt = _verlet_steps(scene, model)
-        frames = -(-steps // _verlet_every(scene, steps, dt)) + 2
-    b = Budget(steps=steps, dt=dt, frames=frames, state=_state_bytes(scene),
-               frame_bytes=frames * _frame_bytes(n), writers=_writer_bytes(scene),
-               available=-1 if available is None else available, model=model)
+    asked = verlet_dt(scene, model) if scene.run.stepper == "verlet" else None
+    schedule = plan_run(scene, model, asked)
+    plan = schedule.plan
+    steps = None if plan is None else min(schedule.steps, scene.run.max_steps)
+    b = Budget(steps=steps, dt=plan.dt if plan is not None else None,
+               frames=schedule.frames, state=_state_bytes(scene),
+               frame_bytes=schedule.frames * _frame_bytes(n), writers=_writer_bytes(scene),
+               available=-1 if available is None else available, model=model,
+               schedule=schedule)
     if available is None and b.total > SMALL_RUN:
         b.available = available_memory()
     return b

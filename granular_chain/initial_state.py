@@ -24,6 +24,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+import h5py
 import numpy as np
 
 __all__ = ["read_state", "StateFileError"]
@@ -96,8 +97,6 @@ def _pick(path, name: str, data: np.ndarray, frame: int) -> np.ndarray:
 
 
 def _from_h5(path, frame):
-    import h5py
-
     with h5py.File(path, "r") as h5:
         missing = [name for name in ("x", "v") if name not in h5]
         if missing:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 __all__ = ["tex_name", "signed", "label_contours", "overlapping"]
 
 _GREEK = ("alpha", "beta", "gamma", "delta", "epsilon", "eta", "theta", "kappa", "lambda",
@@ -191,8 +193,6 @@ def _place_missing(ax, cs, kept: list, renderer, pad: float) -> list:
 def _points_along(transform, path, fractions=(0.5, 0.3, 0.7, 0.15, 0.85)) -> list:
     """Display points at ``fractions`` of the arc length of the longest connected
     piece of ``path`` (none for an empty path)."""
-    import numpy as np
-
     pieces, current = [], []
     for vertex, code in zip(path.vertices, path.codes if path.codes is not None
                             else [1] + [2] * (len(path.vertices) - 1)):

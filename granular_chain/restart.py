@@ -35,8 +35,8 @@ from .checkpoint import CHECKPOINT, load_checkpoint, save_checkpoint, scene_diff
 from .rundir import (MARKER, OutputError, _pid_alive, check_out, check_partial, read_marker,
                      remove_files)
 from .scene import Scene, apply_overrides, load_scene, scene_from_dict
-from .simulate import step_plan
-from .writers.thermo import thermo_every
+from .steppers.schedule import thermo_every
+from .steppers.verlet.timestep import step_plan
 
 __all__ = ["RestartPlan", "plan_restart", "extension_problem", "WRITER_FLAGS"]
 

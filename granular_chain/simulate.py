@@ -8,7 +8,7 @@ writers attached to the run as they come.
 
 from __future__ import annotations
 
-from typing import Optional, Sequence, Union
+from typing import NamedTuple, Optional, Sequence, Union
 
 import numba
 import numpy as np
@@ -24,33 +24,64 @@ from .result import Result
 from .scene import Scene
 from .stages import run_stages
 from .steppers.events import check_exponents, event_options, simulate_events
+from .steppers.schedule import Schedule, plan_run
 from .steppers.verlet.driver import (  # noqa: F401  (re-exported: benchmarks and tests)
-    StepPlan,
     VerletRun,
     _backtrack_to_separation,
     _drift_coefficients,
     _net_forces,
     _overlap_caps,
     _uniform_code,
-    check_accuracy,
-    check_dt,
-    default_dt,
-    step_plan,
 )
+from .steppers.verlet.timestep import check_accuracy, check_dt, default_dt, step_plan, verlet_dt
 
-__all__ = ["simulate", "preflight", "SimulationError", "default_dt", "check_dt", "step_plan"]
+__all__ = ["simulate", "preflight", "prepare_run", "Preflight", "SimulationError", "default_dt",
+           "check_dt", "step_plan"]
 
 
-def preflight(scene: Scene) -> Model:
-    """Every check a run makes before it computes anything; the scene's Model.
+class Preflight(NamedTuple):
+    """What :func:`prepare_run` decided before a run: its Model and its Schedule."""
+
+    model: Model        #: the scene compiled to arrays (scene units)
+    schedule: Schedule  #: steps, frames and thermo lines (:mod:`.steppers.schedule`)
+
+
+def prepare_run(scene: Scene) -> Preflight:
+    """Every check a run makes before it computes anything; the scene's Model and the
+    run's Schedule, each worked out once and handed to :func:`simulate`.
 
     ``granular-chain run`` calls this before it creates any folder, so that a
     refused run changes nothing on disk.
+
+    Parameters
+    ----------
+    scene : Scene
+        The validated scene (scene units).
+
+    Returns
+    -------
+    Preflight
+        The Model (:func:`granular_chain.model.build_model`) and the Schedule.
 
     Raises
     ------
     SimulationError
         Naming the field to change and the limit (for example run.dt).
+    """
+    budget = check_budget(scene)  # refuses, before allocating, what cannot run
+    model = budget.model
+    if scene.run.stepper == "event":
+        check_exponents(model)
+    if scene.run.stepper == "verlet" and scene.run.check_dt:
+        dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
+        check_dt(model, dt)
+        if scene.run.dt is not None and not scene.run.accept_inaccurate_dt:
+            check_accuracy(model, dt)
+    return Preflight(model, budget.schedule)
+
+
+def preflight(scene: Scene) -> Model:
+    """:func:`prepare_run`'s checks; the scene's Model.
 
     Parameters
     ----------
@@ -61,22 +92,20 @@ def preflight(scene: Scene) -> Model:
     -------
     Model
         The scene compiled to arrays (:func:`granular_chain.model.build_model`).
+
+    Raises
+    ------
+    SimulationError
+        Naming the field to change and the limit (for example run.dt).
     """
-    model = check_budget(scene).model  # refuses, before allocating, what cannot run
-    if scene.run.stepper == "event":
-        check_exponents(model)
-    if scene.run.stepper == "verlet" and scene.run.check_dt:
-        dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
-        check_dt(model, dt)
-        if scene.run.dt is not None and not scene.run.accept_inaccurate_dt:
-            check_accuracy(model, dt)
-    return model
+    return prepare_run(scene).model
 
 
 def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
              writers: Sequence = (), keep_frames: bool = True, thermo=None,
              checkpoint=None, resume: Optional[dict] = None,
-             end_checkpoint: bool = False, model: Optional[Model] = None) -> Result:
+             end_checkpoint: bool = False, model: Optional[Model] = None,
+             schedule: Optional[Schedule] = None) -> Result:
     """Run a scene and return its :class:`Result`.
 
     Parameters
@@ -112,9 +141,11 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
         before the last whole step, which a run to a later t_end passes through
         (the event stepper ignores it).
     model : Model, optional
-        The scene's Model as :func:`preflight` returned it, for a caller that has
-        checked the scene already (the command line): it is not built, nor checked,
-        again. Its scene must be ``scene``.
+        The scene's Model as :func:`prepare_run` (or :func:`preflight`) returned it,
+        for a caller that has checked the scene already (the command line): it is not
+        built, nor checked, again. Its scene must be ``scene``.
+    schedule : Schedule, optional
+        With ``model``: the run's Schedule as :func:`prepare_run` returned it.
 
     Returns
     -------
@@ -151,7 +182,7 @@ def simulate(scene: Union[Scene, Model], *, progress: Optional[bool] = None,
     if isinstance(scene, Scene) and scene.run.stages:
         return _simulate_stages(scene, progress, writers, keep_frames, resume, model)
     return _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint, resume,
-                         end_checkpoint, model)
+                         end_checkpoint, model, schedule)
 
 
 def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume,
@@ -177,17 +208,20 @@ def _simulate_stages(scene: Scene, progress, writers, keep_frames, resume,
 
 
 def _simulate_one(scene, progress, writers, keep_frames, thermo, checkpoint,
-                  resume, end_checkpoint, model=None) -> Result:
+                  resume, end_checkpoint, model=None, schedule=None) -> Result:
     """:func:`simulate` of one unstaged run (its parameters)."""
     if model is None:
-        model = preflight(scene)
+        model, schedule = prepare_run(scene)
+    elif schedule is None:
+        asked = verlet_dt(scene, model) if scene.run.stepper == "verlet" else None
+        schedule = plan_run(scene, model, asked)
     with compile_scope(f"{scene.run.stepper} stepper: {model.features.in_words()}"):
-        return _run(scene, model, progress, writers, keep_frames, thermo, checkpoint, resume,
-                    end_checkpoint)
+        return _run(scene, model, schedule, progress, writers, keep_frames, thermo, checkpoint,
+                    resume, end_checkpoint)
 
 
-def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, checkpoint,
-         resume, end_checkpoint) -> Result:
+def _run(scene: Scene, model: Model, schedule: Schedule, progress, writers, keep_frames,
+         thermo, checkpoint, resume, end_checkpoint) -> Result:
     """:func:`simulate` once the scene is checked and packed into ``model``."""
     watch = NeighbourWatch(model.radius)
     log = FrameLog([watch, *writers], keep=keep_frames, background=bool(writers))
@@ -198,12 +232,14 @@ def _run(scene: Scene, model: Model, progress, writers, keep_frames, thermo, che
                 log.sync()
                 checkpoint(state)
 
-            result = simulate_events(event_options(scene), model, log=log, resume=resume,
+            result = simulate_events(event_options(scene, schedule), model, log=log,
+                                     resume=resume,
                                      checkpoint=synced if checkpoint else None,
                                      checkpoint_every=every or 0, progress=progress)
         else:
             run = VerletRun(scene, model, progress, log=log, thermo=thermo, checkpoint=checkpoint,
-                            checkpoint_every=every, end_checkpoint=end_checkpoint)
+                            checkpoint_every=every, end_checkpoint=end_checkpoint,
+                            schedule=schedule)
             result = run.run(resume=resume)
     finally:
         log.finish()  # (the writers' thread is done before anyone closes their files)

@@ -113,6 +113,20 @@ settings.register_profile("explore", derandomize=False, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fixed"))
 
 
+def patch_everywhere(monkeypatch, module: str, name: str, replacement) -> None:
+    """Replace ``granular_chain.<module>.<name>`` and every binding of the same object in
+    the package's loaded modules (a ``from .. import name`` at a module's top holds its
+    own reference), for the test's duration."""
+    import importlib
+    import sys
+
+    original = getattr(importlib.import_module(f"granular_chain.{module}"), name)
+    for mod_name, mod in list(sys.modules.items()):
+        if (mod_name == "granular_chain" or mod_name.startswith("granular_chain.")) \
+                and getattr(mod, name, None) is original:
+            monkeypatch.setattr(mod, name, replacement)
+
+
 def fitted_order(h, err):
     """Least-squares slope of log|err| against log h (the measured order)."""
     h = np.asarray(h, dtype=float)

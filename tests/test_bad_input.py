@@ -472,22 +472,28 @@ def test_console_no_traceback(id, tmp_path):
     assert snapshot(tmp_path) == before
 
 
-def test_steps_and_dt_keeps_a_dividing_dt_bit_for_bit():
+def test_step_plan_keeps_a_dividing_dt_bit_for_bit():
     from granular_chain.model import build_model
     from granular_chain.scene import scene_from_dict
-    from granular_chain.simulate import default_dt
+    from granular_chain.steppers.verlet.timestep import step_plan
+    from granular_chain.steppers.verlet.timestep import default_dt
 
-    assert budget.steps_and_dt(1.0, 0.01) == (100, 0.01, False)
-    assert budget.steps_and_dt(20.0, 1e-4) == (200_000, 1e-4, False)
-    assert budget.steps_and_dt(0.3, 0.1) == (3, 0.1, False)  # 3 * 0.1 = 0.30000000000000004
-    n, dt, short = budget.steps_and_dt(10.0, 0.03)
-    assert (n, short) == (334, True) and dt == 10.0 / 334 and n * dt == pytest.approx(10.0, 1e-15)
-    assert budget.steps_and_dt(1.0, 2.0) == (1, 1.0, True)
+    def plan(t_end, dt=None, k=1.0):
+        sc = scene_from_dict(scene(**{"run.t_end": t_end, "run.dt": dt, "contacts.stiffness": k,
+                                      "run.accept_inaccurate_dt": True, "run.check_dt": False}))
+        return step_plan(build_model(sc), sc)
+
+    for t_end, dt, steps in ((1.0, 0.01, 100), (20.0, 1e-4, 200_000), (0.3, 0.1, 3)):
+        p = plan(t_end, dt)  # (3 * 0.1 = 0.30000000000000004: within 1e-9 dt of 0.3)
+        assert (p.dt, p.steps, p.last_dt, p.total_steps) == (dt, steps, 0.0, steps)
+    p = plan(10.0, 0.03)  # 333 steps of 0.03 and one of 0.01 end at t_end
+    assert (p.dt, p.steps, p.total_steps) == (0.03, 333, 334)
+    assert p.last_dt == pytest.approx(0.01, rel=1e-12) and p.steps * p.dt + p.last_dt == 10.0
     for t_end, k in ((10.0, 1.0), (7.3, 3.7), (1e3, 1e4)):
-        model = build_model(scene_from_dict(scene(**{"run.t_end": t_end,
-                                                      "contacts.stiffness": k})))
-        dt = default_dt(model, t_end)
-        assert budget.steps_and_dt(t_end, dt)[1:] == (dt, False)
+        sc = scene_from_dict(scene(**{"run.t_end": t_end, "contacts.stiffness": k}))
+        model = build_model(sc)
+        p = step_plan(model, sc)
+        assert p.dt == default_dt(model, t_end) and p.last_dt == 0.0
 
 
 def test_summary_json_has_null_and_a_reason_for_non_finite(tmp_path):

@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import finish, wait_until_stepping
+from conftest import finish, patch_everywhere, wait_until_stepping
 
 from granular_chain.cli import main
 
@@ -182,12 +182,10 @@ def test_quiet_run_still_says_why_it_failed(tmp_path, capsys):
 
 
 def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch):
-    from granular_chain.writers import summary
-
     def full(result, folder, scene):
         raise OSError(errno.ENOSPC, "No space left on device", str(folder / "summary.json"))
 
-    monkeypatch.setattr(summary, "write_summary", full)
+    patch_everywhere(monkeypatch, "writers.summary", "write_summary", full)
     scene = _scene(tmp_path, TINY)
     line = _refused(capsys, tmp_path, ["run", str(scene), "--quiet", "--out",
                                        str(tmp_path / "deep" / "out")],
@@ -196,13 +194,10 @@ def test_full_disk_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch)
 
 
 def test_memory_error_is_one_line_and_leaves_nothing(tmp_path, capsys, monkeypatch):
-    import importlib
-    simulate = importlib.import_module("granular_chain.simulate")  # the module, not the function
-
     def no_memory(*args, **kwargs):
         raise MemoryError
 
-    monkeypatch.setattr(simulate, "simulate", no_memory)
+    patch_everywhere(monkeypatch, "simulate", "simulate", no_memory)
     scene = _scene(tmp_path, TINY)
     _refused(capsys, tmp_path, ["run", str(scene), "--quiet", "--out", str(tmp_path / "out")],
              "out of memory", "ulimit -v", "nothing written")

@@ -1,6 +1,7 @@
 """The package's import graph, computed here from the source (every import, those inside
 functions included): no circle, and no import from a stage of the data flow to a later
-one (scene -> model -> result -> steppers -> simulate -> applications -> command line).
+one (scene -> model -> result -> steppers -> simulate -> applications -> command line);
+and no import inside a function except of an optional extra.
 """
 
 import ast
@@ -140,3 +141,44 @@ def test_the_kernel_free_parts_hold_no_kernel_and_no_kernel_imports_them():
     assert numba == []
     assert free("granular_chain.cli.run") and free("granular_chain.classics.registry")
     assert not free("granular_chain.steppers.events.kernel")
+
+
+#: What a function may import where it is needed: the optional extras (pyproject's
+#: [project.optional-dependencies]; a command that lacks one says which in one line).
+OPTIONAL = {"matplotlib", "pyvista", "vtkmodules", "meshio", "dask", "distributed", "xarray",
+            "h5netcdf", "pandas", "IPython", "mkdocs"}
+
+
+def _function_imports(tree) -> list:
+    """(line, name) of every import inside a function of ``tree`` other than of an
+    optional extra (a relative import is named with its leading dots)."""
+    found = []
+    for func in ast.walk(tree):
+        if not isinstance(func, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        for node in ast.walk(func):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = ["." * node.level + (node.module or "")]
+            else:
+                continue
+            found += [(node.lineno, n) for n in names if n.split(".")[0] not in OPTIONAL]
+    return sorted(set(found))
+
+
+def test_functions_import_only_optional_extras():
+    found = [f"{_module(path)}:{line} {name}" for path in sorted(PACKAGE.rglob("*.py"))
+             for line, name in _function_imports(ast.parse(path.read_text()))]
+    assert found == []
+
+
+def test_the_check_finds_an_import_inside_a_function():
+    source = ("import os\n"
+              "def f():\n"
+              "    from ..scene import Scene\n"
+              "    import matplotlib.pyplot as plt\n"
+              "    class C:\n"
+              "        def g(self):\n"
+              "            import json\n")
+    assert _function_imports(ast.parse(source)) == [(3, "..scene"), (7, "json")]

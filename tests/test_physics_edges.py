@@ -90,7 +90,7 @@ def test_accepted_inaccurate_dt_runs_and_its_ledger_judges_it(tmp_path, capsys):
 
 def test_dt_at_the_accuracy_bound_runs():
     from granular_chain.model import build_model
-    from granular_chain.steppers.verlet.driver import accuracy_bound
+    from granular_chain.steppers.verlet.timestep import accuracy_bound
 
     scene = gc.load_scene(SCENES / "two_granules.yaml")
     bound, why = accuracy_bound(build_model(scene))
@@ -254,7 +254,7 @@ def test_verlet_near_one_gives_the_exact_outcome_at_its_default_step():
     """Equal masses, elastic: the exact answer is v1 = 0, v2 = 1 (propagation only)."""
     c = collide(1.01, stepper="verlet")
     assert c.outcome.name == "propagation_only"
-    from granular_chain.steppers.verlet.driver import NEAR_ONE_STEPS_PER_PERIOD
+    from granular_chain.steppers.verlet.timestep import NEAR_ONE_STEPS_PER_PERIOD
 
     T = c.result.model.shortest_period()
     # (shortened by at most one step in t_max / dt = 4.97e5, to end exactly at t_max)
@@ -335,7 +335,7 @@ def _table_after(text: str, title: str) -> list[list[str]]:
 def test_robustness_tables_match_the_code():
     from granular_chain.scene import DEFAULT_ENERGY_TOLERANCE
     from granular_chain.steppers.events import MAX_EXPONENT, MIN_EXPONENT
-    from granular_chain.steppers.verlet import driver
+    from granular_chain.steppers.verlet import timestep as driver
 
     text = (ROOT / "docs" / "robustness.md").read_text()
     section = text.split("## Valid range of each stepper", 1)[1].split("\n## ", 1)[0]
@@ -345,7 +345,7 @@ def test_robustness_tables_match_the_code():
     assert verlet[1].startswith("n > 1") and f"n = {driver.NEAR_ONE_EXPONENT:g}" in verlet[1]
     assert f"T/{driver.ACCURACY_STEPS_PER_PERIOD}" in verlet[2]
     assert f"m_eff/({driver.ACCURACY_STEPS_PER_RELAXATION} c)" in verlet[2]
-    assert "T/pi" in verlet[2] and math.isclose(driver._STABILITY_FRACTION, 1 / math.pi)
+    assert "T/pi" in verlet[2] and math.isclose(driver.STABILITY_FRACTION, 1 / math.pi)
     assert re.fullmatch(
         rf"T/{driver._DEFAULT_STEPS_PER_PERIOD}; T/{driver.NEAR_ONE_STEPS_PER_PERIOD} when an "
         rf"exponent is below {driver.NEAR_ONE_EXPONENT:g}; at most t_end/100", verlet[3])

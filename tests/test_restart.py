@@ -125,7 +125,7 @@ def test_rest_stop_does_not_depend_on_where_compiled_calls_end(monkeypatch):
     checkpoint and wall-clock boundaries of the compiled calls."""
     import granular_chain as gc
     from granular_chain.model import build_model
-    from granular_chain.steppers import verlet_run
+    from granular_chain.steppers.verlet import VerletRun
     from granular_chain.steppers.verlet import driver as verlet_driver
     from granular_chain.writers.thermo import ThermoLog
 
@@ -134,12 +134,12 @@ def test_rest_stop_does_not_depend_on_where_compiled_calls_end(monkeypatch):
     rest = base.steps
     runs = []
     scene = rest_scene()
-    runs.append(verlet_run.VerletRun(scene, build_model(scene), False,
-                                     thermo=ThermoLog(build_model(scene), rest)).run())
+    runs.append(VerletRun(scene, build_model(scene), False,
+                          thermo=ThermoLog(build_model(scene), rest)).run())
     scene = rest_scene()
     scene.output.checkpoint_every = rest
-    runs.append(verlet_run.VerletRun(scene, build_model(scene), False, checkpoint=lambda s: None,
-                                     checkpoint_every=rest).run())
+    runs.append(VerletRun(scene, build_model(scene), False, checkpoint=lambda s: None,
+                          checkpoint_every=rest).run())
     monkeypatch.setattr(verlet_driver, "CHUNK_SECONDS", 1e-5)  # calls of a few steps
     runs.append(gc.simulate(rest_scene(), progress=False))
     for r in runs:
@@ -150,7 +150,7 @@ def test_rest_stop_does_not_depend_on_where_compiled_calls_end(monkeypatch):
 def test_no_checkpoint_once_every_step_is_taken():
     import granular_chain as gc
     from granular_chain.model import build_model
-    from granular_chain.steppers.verlet_run import VerletRun
+    from granular_chain.steppers.verlet import VerletRun
 
     scene = gc.scene_from_dict({"granules": {"count": 5, "velocity": {0: 1.0}},
                                 "run": {"t_end": 4.0, "dt": 0.01}})
@@ -195,7 +195,7 @@ def test_resumed_run_keeps_the_event_log():
     """output.events: the events logged before the checkpoint are part of the state."""
     import granular_chain as gc
     from granular_chain.model import build_model
-    from granular_chain.steppers.verlet_run import VerletRun
+    from granular_chain.steppers.verlet import VerletRun
 
     scene = gc.scene_from_dict({
         "granules": {"count": 20, "radius": 2.0, "velocity": {0: 1.0},
@@ -220,7 +220,7 @@ def test_resumed_run_with_dashpots_gravity_and_a_driven_wall():
     included (t_end is no multiple of dt)."""
     import granular_chain as gc
     from granular_chain.model import build_model
-    from granular_chain.steppers.verlet_run import VerletRun
+    from granular_chain.steppers.verlet import VerletRun
 
     scene = gc.scene_from_dict({
         "granules": {"count": 8, "radius": 2.0, "velocity": {7: -0.5}, "gap": 0.0,

@@ -17,7 +17,7 @@ import granular_chain as gc
 from granular_chain.cli import main
 from granular_chain.model import build_model
 from granular_chain.rundir import read_marker
-from granular_chain.steppers.verlet_run import VerletRun
+from granular_chain.steppers.verlet import VerletRun
 
 SCENES = Path(__file__).resolve().parents[1] / "scenarios"
 WALL_TIMES = ("wall_time_s", "wall_time")

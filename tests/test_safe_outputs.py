@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import patch_everywhere
 from granular_chain.cli import main
 from granular_chain.rundir import MARKER, default_out, read_marker
 
@@ -194,12 +195,10 @@ def test_refused_run_creates_nothing(work, capsys):
 
 
 def test_failed_writer_leaves_nothing(work, monkeypatch):
-    import granular_chain.writers.summary as summary
-
     def broken(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(summary, "write_summary", broken)
+    patch_everywhere(monkeypatch, "writers.summary", "write_summary", broken)
     with_sentinel(work)
     before = snapshot(work)
     assert run("--out", "r") == 2  # said in one line (tests/test_hangs_input.py)
@@ -255,12 +254,10 @@ def test_plot_refuses_user_pngs_and_plots_join_the_run(work, capsys):
 
 
 def test_failed_run_removes_the_folders_it_created(work, monkeypatch):
-    import granular_chain.writers.summary as summary
-
     def broken(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(summary, "write_summary", broken)
+    patch_everywhere(monkeypatch, "writers.summary", "write_summary", broken)
     before = snapshot(work)
     assert run("--out", "deep/er/run") == 2  # a write error: one line, exit 2
     assert snapshot(work) == before and not (work / "deep").exists()

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import patch_everywhere
 from granular_chain.cli import main
 from granular_chain.rundir import MARKER, read_marker
 
@@ -127,7 +128,7 @@ def forbid(monkeypatch):
                          ("two_granules.curves", "trace_curves"),
                          ("readback", "read_trajectory"), ("readback", "read_run"),
                          ("simulate", "simulate"), ("sweep.execute", "run_batch")):
-        monkeypatch.setattr(import_module(f"granular_chain.{module}"), name, _no_work)
+        patch_everywhere(monkeypatch, module, name, _no_work)
     monkeypatch.setattr(import_module("granular_chain.classics.experiment").Experiment, "run",
                         _no_work)
 

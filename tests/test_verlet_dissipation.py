@@ -18,7 +18,7 @@ import granular_chain as gc
 from conftest import fitted_order
 from granular_chain.model import build_model
 from granular_chain.restitution import (column_overlaps, linear_dashpot, restitution_reference)
-from granular_chain.steppers.verlet.driver import default_dt
+from granular_chain.steppers.verlet.timestep import default_dt
 
 M_EFF = 0.5  # two unit masses
 FINE = (50, 100, 200)  # steps per contact time

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from granular_chain import Event, load_scene, simulate
+from conftest import patch_everywhere
 from granular_chain.cli import main
 from granular_chain.model import build_model
 
@@ -317,12 +318,10 @@ def test_failing_writer_leaves_no_output_folder(tmp_path, monkeypatch):
 
 
 def test_failing_rerun_keeps_the_previous_run(tmp_path, monkeypatch):
-    import granular_chain.writers.tables as tables
-
     out = tmp_path / "out"
     assert main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=2"]) == 0
     before = (out / "summary.json").read_text()
-    monkeypatch.setattr(tables, "write_events_csv", lambda *a, **k: 1 / 0)  # after the run
+    patch_everywhere(monkeypatch, "writers.tables", "write_events_csv", lambda *a, **k: 1 / 0)  # after the run
     with pytest.raises(ZeroDivisionError):
         main(["run", str(CHAIN), "--out", str(out), "--quiet", "--set", "run.t_end=3", "--csv",
               "--overwrite"])

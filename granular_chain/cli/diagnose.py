@@ -9,6 +9,11 @@ import sys
 from pathlib import Path
 
 from ..diagnostics import summarize
+from ..errors import SimulationError
+from ..readback import read_trajectory
+from ..rundir import OutputError, claim_file, write_text_atomic
+from ..scene import SceneError, load_scene
+from ..simulate import simulate
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -53,9 +58,6 @@ def run(args) -> int:
     int
         The exit status.
     """
-    from ..rundir import OutputError, claim_file, write_text_atomic
-    from ..scene import SceneError, load_scene
-
     target = Path(args.target)
     claim = None
     try:
@@ -66,7 +68,6 @@ def run(args) -> int:
                 print(f"granular-chain: {target}: no trajectory.h5 (run with trajectory on)",
                       file=sys.stderr)
                 return 2
-            from ..readback import read_trajectory
             try:
                 result, scene = read_trajectory(target)
             except (OSError, ValueError) as exc:
@@ -78,7 +79,6 @@ def run(args) -> int:
                       file=sys.stderr)
                 return 2
         else:
-            from ..simulate import SimulationError, simulate
             scene = load_scene(target, args.overrides)
             try:
                 result = simulate(scene)

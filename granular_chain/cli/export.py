@@ -6,7 +6,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..extras import check
+from ..readback import read_run, run_model
+from ..rundir import OutputError, claim_folder
 from ..writers.export import export_run
+from .exit_codes import fail
 
 
 def add_parser(subparsers):
@@ -46,15 +49,6 @@ def run(args) -> int:
     int
         The exit status.
     """
-    import sys
-
-    from ..readback import read_run, run_model
-    from ..rundir import OutputError, claim_folder
-
-    def fail(message: str) -> int:
-        print(f"granular-chain: {message}", file=sys.stderr)
-        return 2
-
     check("meshio", "granular-chain export")
     import meshio
 

@@ -4,6 +4,7 @@ each with ``add_parser(subparsers)`` and ``run(args) -> exit status``."""
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib
 import os
 import signal
@@ -84,8 +85,6 @@ def _exit_now(status: int) -> None:
     """End the process at once, its files closed and its output flushed: the
     interpreter's teardown (unloading the compiled kernels) can take seconds on a
     loaded machine, and a user who asked the command to stop waits for it."""
-    import atexit
-
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:

@@ -5,6 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..extras import check
+from ..readback import read_trajectory
+from ..rundir import OutputError, claim_folder
+from ..writers.plots import PLOT_DIR, write_plots
 from .exit_codes import EXIT_OK, fail
 
 
@@ -56,10 +59,6 @@ def run(args) -> int:
         except ValueError:
             return fail(f"--granules: {args.granules!r} is not a comma-separated list of "
                         f"granule indices")
-    from ..rundir import OutputError, claim_folder
-    from ..writers.plots import PLOT_DIR, write_plots
-    from ..readback import read_trajectory
-
     # --out names the PNG folder itself; by default they go to RUN_DIR/plots/.
     folder = Path(args.out) if args.out else run_dir / PLOT_DIR
     names = ("spacetime.png", "energy.png", "velocities.png", "frame.png")

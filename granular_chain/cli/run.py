@@ -15,14 +15,30 @@ rule: a new folder, or an earlier run folder of the engine holding nothing else
 from __future__ import annotations
 
 import argparse
+import errno
 import sys
 import warnings
 from pathlib import Path
 from typing import Optional
 
+from ..checkpoint import CHECKPOINT, save_checkpoint
+from ..errors import SimulationError
 from ..extras import check
+from ..interrupts import stop_signals
 from ..notices import CompileNotice
+from ..readback import read_run
+from ..restart import WRITER_FLAGS, plan_restart
+from ..result import Status
+from ..rundir import OutputError, RunFolder, check_out, default_out, stale_partials
 from ..scene import SceneError, load_scene
+from ..simulate import prepare_run, simulate
+from ..warmup import prepare_kernels
+from ..writers.plots import write_plots
+from ..writers.summary import write_summary
+from ..writers.tables import EnergyTable, write_events_csv
+from ..writers.thermo import ThermoLog
+from ..writers.trajectory import TrajectoryFrames
+from ..writers.vtk import FRAME_DIR, VTKFrames
 from .exit_codes import EXIT_INTERRUPTED, EXIT_OK, EXIT_RUN_FAILED, fail
 
 
@@ -65,7 +81,6 @@ def add_parser(subparsers) -> None:
 
 def _writer_flags(args) -> dict:
     """The writer flags given (``--csv``, ``--no-trajectory``...): output field -> bool."""
-    from ..restart import WRITER_FLAGS
     return {name: getattr(args, name) for name in WRITER_FLAGS
             if getattr(args, name, None) is not None}
 
@@ -79,31 +94,25 @@ class _Attached:
     """The writers attached to one run: they write while it goes, so the frames
     are not kept in memory (the plots, drawn after the run, read them back)."""
 
-    def __init__(self, scene, model, folder: Path, echo: bool, resume: Optional[dict] = None):
-        from ..writers.thermo import ThermoLog, thermo_every
-
+    def __init__(self, scene, ready, folder: Path, echo: bool, resume: Optional[dict] = None):
+        model = ready.model
         out, run = scene.output, scene.run
         # a continued run reopens the files at the checkpoint's frame and thermo line
         frames = int(resume["frames"]) if resume is not None else None
         lines = int(resume["thermo_lines"]) if resume is not None else None
         self.writers = []
         if out.trajectory:
-            from ..writers.trajectory import TrajectoryFrames
             self.writers.append(TrajectoryFrames(folder, scene, model.count, frames,
                                                  model=model))
         if out.csv:
-            from ..writers.tables import EnergyTable
             self.writers.append(EnergyTable(folder, frames))
         self.streams = []  # subfolders that gain a file a frame
         if out.vtk:
-            from ..writers.vtk import FRAME_DIR, VTKFrames
             self.writers.append(VTKFrames(folder, model, resume_frames=frames))
             self.streams.append(FRAME_DIR)
         path = folder / "thermo.csv"
         if run.stepper == "verlet" and not run.stages:
-            from ..simulate import step_plan
-            steps = step_plan(model, scene).steps
-            self.thermo = ThermoLog(model, thermo_every(steps, out.thermo), path, echo,
+            self.thermo = ThermoLog(model, ready.schedule.thermo_every, path, echo,
                                     resume_lines=lines)
         else:  # the event stepper and a staged run hand their frames on as they come:
             # thin them in time
@@ -119,7 +128,6 @@ class _Attached:
         """The callback that saves a run's checkpoint with what the writers need to
         reopen their files at it (frames written, thermo lines), then calls
         ``noted(streams)`` (the run folder lists its files for --restart)."""
-        from ..checkpoint import save_checkpoint
 
         def save(state: dict) -> None:
             state = dict(state)
@@ -151,26 +159,20 @@ def _write_outputs(result, folder: Path, scene, stop) -> list[str]:
     out = scene.output
     missed = []
     if out.csv:
-        from ..writers.tables import write_events_csv
         write_events_csv(result, folder)
     if out.plots and stop.requested:
         missed.append("plots")
     elif out.plots:
-        from ..writers.plots import write_plots
         frames = result
         if out.trajectory:  # the run streamed its frames: read them back
-            from ..readback import read_run
             frames = read_run(folder / "trajectory.h5")
         write_plots(frames, folder, scene)
-    from ..writers.summary import write_summary
     write_summary(result, folder, scene)
     return missed
 
 
 def _incomplete_reason(result, stop, missed: list[str]) -> str:
     """Why a published run is incomplete ('' when it is complete)."""
-    from ..result import Status
-
     parts = []
     if result.status == Status.INTERRUPTED:
         again = ("run it again: a staged run is not continued" if result.info.get("stages")
@@ -194,8 +196,6 @@ def _check_extras(scene) -> None:
 
 def _output_folder(args, scene) -> tuple[Path, bool]:
     """The run's folder and whether it is the default one (not named by --out)."""
-    from ..rundir import default_out
-
     if args.out:
         return Path(args.out), False
     return default_out(scene.name, args.overrides), True
@@ -215,40 +215,33 @@ def run(args) -> int:
         Exit status: 0 ok, 1 run failed, 2 bad input (also a full disk or too little
         memory), 129/130/143 stopped by SIGHUP/SIGINT/SIGTERM.
     """
-    from ..rundir import OutputError
-    from ..simulate import SimulationError
-
     if args.scene is None and not args.restart:
         return fail("run: give a SCENE file, or --restart RUN_DIR to continue a run "
                     "(see granular-chain run --help)")
     if args.quiet:  # (the command's warning filters are restored when it returns)
         warnings.simplefilter("ignore", CompileNotice)
     try:
-        scene, model, out, restart = _prepare_run(args)
+        scene, ready, out, restart = _prepare_run(args)
     except (SceneError, OutputError) as exc:
         return fail(str(exc))
     except SimulationError as exc:
         return fail(f"{args.scene or args.restart}: {exc}")
-    from ..warmup import prepare_kernels
     try:
-        prepare_kernels(scene, quiet=args.quiet, model=model)
+        prepare_kernels(scene, quiet=args.quiet, model=ready.model)
     except KeyboardInterrupt as exc:  # (raise_on_signals: SIGTERM and SIGHUP too)
         signum = getattr(exc, "signum", 0)
         print(f"granular-chain: interrupted while compiling by {exc or 'SIGINT'}; nothing "
               f"written", file=sys.stderr)
         return 128 + signum if signum else EXIT_INTERRUPTED
-    return _execute(args, scene, model, out, restart)
+    return _execute(args, scene, ready, out, restart)
 
 
 def _prepare_run(args):
-    """Scene, model, output folder and (for --restart) the run to continue; every
-    refusal happens here, before anything is written."""
-    from ..rundir import check_out
-    from ..simulate import preflight
-
+    """Scene, its :class:`~granular_chain.simulate.Preflight` (Model and Schedule),
+    output folder and (for --restart) the run to continue; every refusal happens here,
+    before anything is written."""
     restart = None
     if args.restart:
-        from ..restart import plan_restart
         restart = plan_restart(args)
         scene, out = restart.scene, restart.out
     else:
@@ -258,47 +251,37 @@ def _prepare_run(args):
         check_out(out, overwrite=args.overwrite, scene_source=args.scene, is_default=is_default)
         _note_killed_runs(out)
     _check_extras(scene)
-    model = preflight(scene)
+    ready = prepare_run(scene)
     if restart is not None:
-        restart.decide(model)
+        restart.decide(ready.model)
         if restart.fresh:  # said even with --quiet: the run takes as long as a new one
             print(f"granular-chain: note: the run is computed again from t = 0 to t_end = "
                   f"{scene.run.t_end:g}: {restart.fresh}", file=sys.stderr)
-    return scene, model, out, restart
+    return scene, ready, out, restart
 
 
 def _note_killed_runs(out: Path) -> None:
     """Say where a killed run to the same folder left a checkpoint (it is kept)."""
-    from ..rundir import stale_partials
-
     parent = out.parent if str(out.parent) else Path(".")
     for tmp in stale_partials(parent, out.name, recoverable=True):
         print(f"granular-chain: note: a killed run to {out} left a checkpoint in {tmp}: "
               f"continue it with --restart {tmp}, or remove it", file=sys.stderr)
 
 
-def _attach(args, scene, model, folder: Path, resume) -> _Attached:
+def _attach(args, scene, ready, folder: Path, resume) -> _Attached:
     """The run's writers; a continued run's files that cannot be reopened (a truncated
     or corrupted trajectory.h5) are refused in one line."""
-    from ..rundir import OutputError
-
     if resume is None:
-        return _Attached(scene, model, folder, not args.quiet, resume)
+        return _Attached(scene, ready, folder, not args.quiet, resume)
     try:
-        return _Attached(scene, model, folder, not args.quiet, resume)
+        return _Attached(scene, ready, folder, not args.quiet, resume)
     except (OSError, ValueError, KeyError) as exc:
         raise OutputError(f"--restart {args.restart}: its files cannot be continued from "
                           f"the checkpoint ({' '.join(str(exc).split())})") from None
 
 
-def _execute(args, scene, model, out: Path, restart) -> int:
+def _execute(args, scene, ready, out: Path, restart) -> int:
     """Run with the writers attached, then publish the run folder."""
-    from ..checkpoint import CHECKPOINT
-    from ..interrupts import stop_signals
-    from ..result import Status
-    from ..rundir import OutputError, RunFolder
-    from ..simulate import simulate
-
     about = {"scene_name": scene.name, "stepper": scene.run.stepper,
              "destination": str(out.resolve())}
     if restart is None:
@@ -311,13 +294,14 @@ def _execute(args, scene, model, out: Path, restart) -> int:
         try:
             with RunFolder(out, about) as folder:
                 resume = restart.prepare(folder.tmp) if restart is not None else None
-                attached = _attach(args, scene, model, folder.tmp, resume)
+                attached = _attach(args, scene, ready, folder.tmp, resume)
                 try:
                     result = simulate(
                         scene, progress=_bar_wanted(args), writers=attached.writers,
                         keep_frames=attached.keep_frames, thermo=attached.thermo,
                         checkpoint=attached.checkpoint(folder.tmp, scene, folder.note_files),
-                        resume=resume, end_checkpoint=True, model=model)
+                        resume=resume, end_checkpoint=True, model=ready.model,
+                        schedule=ready.schedule)
                 except BaseException:
                     attached.abandon()
                     raise
@@ -361,13 +345,11 @@ def _bar_wanted(args) -> bool:
 def _extendable(result) -> bool:
     """A finished run keeps its last checkpoint when a later run.t_end can go on from
     it: a Verlet run that reached t_end (:mod:`granular_chain.restart`)."""
-    from ..result import Status
     return result.stepper == "verlet" and result.status == Status.T_END
 
 
 def _os_problem(exc: OSError) -> str:
     """An OSError in words: its reason, and the file when it names one."""
-    import errno
     what = exc.strerror or str(exc)
     if exc.errno in (errno.ENOSPC, errno.EDQUOT):
         what += ": free some space, or write elsewhere with --out"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from ..scene import scene_json_schema
 from .exit_codes import EXIT_OK
 
 
@@ -31,7 +32,5 @@ def run(args) -> int:
     int
         0: the schema is printed on stdout.
     """
-    from ..scene import scene_json_schema
-
     print(json.dumps(scene_json_schema(), indent=2))
     return EXIT_OK

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 
+from ..errors import SimulationError
+from ..scene import SceneError, load_scene
+from ..simulate import preflight, step_plan
 from .exit_codes import EXIT_OK, fail
 
 
@@ -34,9 +37,6 @@ def run(args) -> int:
     int
         Exit status: 0 valid (a JSON report on stdout), 2 invalid.
     """
-    from ..scene import SceneError, load_scene
-    from ..simulate import SimulationError, preflight, step_plan
-
     try:
         scene = load_scene(args.scene, args.overrides)
         model = preflight(scene)

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Optional, Sequence
 
+from tqdm import tqdm
+
 from .._compile import share_compiling
 from ..extras import require
 from ..interrupts import stop_signals
@@ -341,5 +343,4 @@ def _run_serial(batches: list, task: tuple, options: PointOptions, take) -> int:
 def _bar(progress, total, initial):
     if progress is False or (progress is None and not sys.stderr.isatty()):
         return None
-    from tqdm import tqdm
     return tqdm(total=total, initial=initial, unit="point", smoothing=0.05, file=sys.stderr)

@@ -11,9 +11,10 @@ from typing import Any, Sequence
 import numpy as np
 
 from .. import diagnostics as dg
+from ..errors import SimulationError
 from ..notices import OverlapWarning, TimeStepWarning
 from ..scene import SceneError, scene_from_dict, set_path
-from ..simulate import SimulationError, simulate
+from ..simulate import simulate
 from ..two_granules import classify
 from .grid import SweepError, coord_text
 

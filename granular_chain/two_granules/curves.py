@@ -12,6 +12,7 @@ import json
 import math
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Optional
 
 import numpy as np
@@ -387,7 +388,6 @@ def write_curves(curves, folder, stem: str = "boundaries") -> list:
     list of Path
         The CSV and JSON written.
     """
-    from pathlib import Path
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     csv_path, json_path = folder / f"{stem}_curves.csv", folder / f"{stem}_curves.json"

@@ -26,7 +26,7 @@ from ..result import Result
 from ..scene import scene_from_dict
 from ..simulate import simulate
 from ..steppers.events import EventBatch, check_exponents
-from ..steppers.verlet.driver import NEAR_ONE_EXPONENT
+from ..steppers.verlet.timestep import NEAR_ONE_EXPONENT
 from .outcomes import OUTCOMES, Outcome, outcome_code
 
 __all__ = ["Collision", "collide", "classify", "two_granule_scene", "energy_ratio"]

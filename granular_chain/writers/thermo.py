@@ -17,35 +17,15 @@ from pathlib import Path
 from typing import Optional
 
 import numpy as np
+from rich.console import Console
 
 from ..progress import echo
 from .tables import keep_lines
 
-__all__ = ["ThermoLog", "COLUMNS", "thermo_every"]
+__all__ = ["ThermoLog", "COLUMNS"]
 
 COLUMNS = ("step", "t", "kinetic", "potential", "dissipated", "ledger_error",
            "contacts_closed", "sliding")
-_LINES_BY_DEFAULT = 20
-
-
-def thermo_every(steps: int, every: Optional[int]) -> int:
-    """Steps between thermo lines: ``every`` when given, else about 20 lines a run.
-
-    Parameters
-    ----------
-    steps : int
-        Verlet steps of the run.
-    every : int, optional
-        Steps between lines asked for.
-
-    Returns
-    -------
-    int
-        At least 1.
-    """
-    if every is not None:
-        return int(every)
-    return max(1, math.ceil(steps / _LINES_BY_DEFAULT))
 
 
 class ThermoLog:
@@ -161,7 +141,6 @@ class _Echo:
     def __init__(self):
         self._rich = None
         if sys.stdout.isatty():
-            from rich.console import Console
             self._rich = Console(highlight=False)
         header = "".join(f"{name:>{w}}" for name, w in zip(
             ("step", "t", "kinetic", "potential", "dissipated", "ledger", "closed", "sliding"),

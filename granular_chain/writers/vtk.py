@@ -53,12 +53,14 @@ import os
 import time
 from pathlib import Path
 from typing import Optional
+from xml.etree import ElementTree
 from xml.sax.saxutils import quoteattr
 
 from typing import NamedTuple
 
 import numba
 import numpy as np
+from tqdm import tqdm
 
 from ..extras import require
 from ..laws.contact import LAW_POWER, contact_force
@@ -490,7 +492,6 @@ def write_vtk(result, folder, scene, *, compression: Optional[str] = "zlib",
     model = run_model(result, scene)
     frames = range(result.t.size)
     if progress:
-        from tqdm import tqdm
         frames = tqdm(frames, desc="writing VTK", unit="frame", leave=False, delay=1.0)
     with VTKSeriesWriter(folder, model.radius, model.mass, model.k, model.n,
                          model.eta_static, compression=compression,
@@ -535,8 +536,6 @@ class VTKFrames:
     def _resume(self, folder: Path, frames: int) -> None:
         """Continue after the first ``frames`` frames of the index (a run restarted from
         a checkpoint); the frame files after them are removed (the engine wrote them)."""
-        from xml.etree import ElementTree
-
         entries = [(float(d.get("timestep")), d.get("file")) for d in
                    ElementTree.parse(folder / PVD_NAME).getroot().iter("DataSet")]
         if len(entries) < frames:

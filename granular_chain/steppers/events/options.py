@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Optional
 
+from ..schedule import Schedule, event_schedule
+
 __all__ = ["EventOptions", "event_options", "series_order", "frame_interval"]
 
 # n = 2: order and relative size of the first neglected terms (below roundoff).
@@ -13,12 +15,6 @@ LINEAR_RTOL = 2e-17
 # n = 2: largest step times the eigenvalue bound L (see kernel.taylor_step, step_cap).
 LINEAR_STEP = 0.5
 
-#: Chains up to this many granules get a frame at every event batch; longer ones
-#: at the output.dt cadence only (a frame holds 3 N values; a long chain has
-#: thousands of event batches).
-FRAMES_AT_EVENTS_MAX_N = 64
-_DEFAULT_FRAMES = 1000
-_DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f), as the Verlet default
 
 
 class EventOptions(NamedTuple):
@@ -35,6 +31,7 @@ class EventOptions(NamedTuple):
     stop_rest: bool             #: end the run when every granule is at rest
     output_dt: Optional[float]  #: output cadence in time (None: the default)
     output_every: Optional[int]  #: a frame every this many steps (None: none)
+    cadence_frames: int = 0     #: without output.dt: frames spread over t_end (0: none)
 
     def in_time_unit(self, B: float) -> "EventOptions":
         """The options with their times (``t_end``, ``output_dt``) in units of ``B``.
@@ -55,13 +52,16 @@ class EventOptions(NamedTuple):
                              output_dt=self.output_dt / B if self.output_dt is not None else None)
 
 
-def event_options(scene) -> EventOptions:
+def event_options(scene, schedule: Optional[Schedule] = None) -> EventOptions:
     """The :class:`EventOptions` of a scene (``scene.run`` and ``scene.output``).
 
     Parameters
     ----------
     scene : Scene
         A validated scene; its times are in scene units.
+    schedule : Schedule, optional
+        The run's :class:`~granular_chain.steppers.schedule.Schedule` (worked out
+        from the scene when not given).
 
     Returns
     -------
@@ -70,11 +70,12 @@ def event_options(scene) -> EventOptions:
     """
     run, out = scene.run, scene.output
     stops = run.stop_conditions
+    schedule = event_schedule(scene) if schedule is None else schedule
     return EventOptions(
         t_end=run.t_end, rtol=run.rtol, atol=run.atol, max_steps=run.max_steps,
         max_events=run.max_events, stop_contact=run.stop_contact,
         stop_separation="separation" in stops, stop_rest="rest" in stops,
-        output_dt=out.dt, output_every=out.every)
+        output_dt=out.dt, output_every=out.every, cadence_frames=schedule.cadence_frames)
 
 
 def series_order(rtol: float) -> int:
@@ -93,19 +94,15 @@ def series_order(rtol: float) -> int:
     return int(min(30, max(8, math.ceil(-0.5 * math.log(rtol)) + 2)))
 
 
-def frame_interval(options: EventOptions, N: int) -> float:
-    """Output cadence in time (0: none).
-
-    ``output.dt`` if given; for a chain longer than FRAMES_AT_EVENTS_MAX_N
-    without it (and without ``output.every``) about 1000 frames, fewer for long
-    chains (at most 1e7 values per recorded array), as Verlet's default.
+def frame_interval(options: EventOptions) -> float:
+    """Output cadence in time (0: none): ``output.dt`` if given, else t_end spread over
+    the schedule's ``cadence_frames`` (a chain longer than FRAMES_AT_EVENTS_MAX_N
+    without output.every; :mod:`granular_chain.steppers.schedule`).
 
     Parameters
     ----------
     options : EventOptions
         The run's options, times in the unit the stepper runs in.
-    N : int
-        Number of granules.
 
     Returns
     -------
@@ -115,7 +112,6 @@ def frame_interval(options: EventOptions, N: int) -> float:
     """
     if options.output_dt is not None:
         return float(options.output_dt)
-    if N <= FRAMES_AT_EVENTS_MAX_N or options.output_every is not None:
+    if options.cadence_frames == 0:
         return 0.0
-    frames = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // N))
-    return float(options.t_end) / frames
+    return float(options.t_end) / options.cadence_frames

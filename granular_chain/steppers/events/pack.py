@@ -14,8 +14,9 @@ from ...laws.damping import DAMPING_NONE, DAMPING_VISCOELASTIC
 from ...model import LAW_LINEAR, Model
 from .kernel import run_events
 from .modes import initial_friction_modes
-from .options import (FRAMES_AT_EVENTS_MAX_N, LINEAR_ORDER, LINEAR_RTOL, LINEAR_STEP,
-                      EventOptions, frame_interval, series_order)
+from ..schedule import FRAMES_AT_EVENTS_MAX_N
+from .options import (LINEAR_ORDER, LINEAR_RTOL, LINEAR_STEP, EventOptions, frame_interval,
+                      series_order)
 from .records import (CLOCK_DTYPE, MODE_DTYPE, SETTINGS_DTYPE, ChainArrays, EventLog,
                       EventRecords, FrameBuffers, MotionState, Workspace)
 
@@ -245,7 +246,7 @@ def _settings(options: EventOptions, N: int, linear: bool):
     else:
         s.order, s.rtol, s.atol = series_order(options.rtol), options.rtol, options.atol
     s.t_end = options.t_end
-    s.frame_interval = frame_interval(options, N)
+    s.frame_interval = frame_interval(options)
     s.watch = options.stop_contact + 1 if N > 1 else -10
     s.stop_separation = int(options.stop_separation)
     s.stop_rest = int(options.stop_rest)

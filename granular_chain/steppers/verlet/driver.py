@@ -19,9 +19,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, NamedTuple, Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -31,185 +30,26 @@ from ...errors import SimulationError
 from ...forces import net_forces
 from ...frames import Frame, FrameLog, RunEnds
 from ...interrupts import CHUNK_SECONDS, stop_signals
-from ...laws.damping import DAMPING_LINEAR
 from ...laws.friction import drift_tables
 from ...model import Model
 from ...progress import progress_bar
 from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Event, Result, ledger_balance
 from ...units import scaled_parameters
 from ..opening import opening_floor, resolved_opening, roundoff_note
+from ..schedule import Schedule
 from .event_log import EventLog, new_event_log
 from .forced import forced_chunk
-from .forced_setup import (FORCED_STATE_ARRAYS, body_work, dashpot_rate, forced_dt_limit,
-                           forced_records, is_forced, walls_at)
+from .forced_setup import FORCED_STATE_ARRAYS, body_work, forced_records, is_forced, walls_at
 from .frame_scan import (CONTACT_PASSED, LEFT_WALL_PASSED, NO_PROBLEM, FrameArrays, Scan,
                          ScanCodes, scan_frame, settle_frame, stash_state)
 from .kernel import chunk_kernel, synchronise
 from .records import (PER_GRANULE, STOP_ON_REST, STOP_ON_SEPARATION, UNIFORM, UNIT, Call, Chain,
                       Features, State, Timestep)
+from .timestep import STABILITY_FRACTION, check_dt, step_plan
 
-if TYPE_CHECKING:  # (annotations only: the scene module is not needed to step)
-    from ...scene import Scene
+__all__ = ["VerletRun"]
 
-__all__ = ["VerletRun", "StepPlan", "step_plan", "default_dt", "check_dt", "accuracy_bound",
-           "check_accuracy", "smallest_exponent", "ACCURACY_STEPS_PER_PERIOD",
-           "ACCURACY_STEPS_PER_RELAXATION", "NEAR_ONE_EXPONENT", "NEAR_ONE_STEPS_PER_PERIOD"]
-
-# Velocity Verlet on a linear contact of period T is unstable for dt > T/pi.
-_STABILITY_FRACTION = 1.0 / math.pi
-_DEFAULT_STEPS_PER_PERIOD = 200
-#: Near n = 1 the force k delta^(n-1) is almost a step at contact and Verlet is
-#: first order (docs/verlet_convergence.md): below NEAR_ONE_EXPONENT the default
-#: step is 1/NEAR_ONE_STEPS_PER_PERIOD of the period (collide(1.01): ledger error
-#: 2.2e-3 against 6.8e-3 at 1/200).
-NEAR_ONE_EXPONENT = 1.5
-NEAR_ONE_STEPS_PER_PERIOD = 800
-_DEFAULT_FRAMES = 1000
-_DEFAULT_FRAME_VALUES = 10_000_000  # per recorded array (x, v, f): 80 MB each
 _UNSTABLE_BALANCE = 1.0
-#: The accuracy bound of run.dt: T / ACCURACY_STEPS_PER_PERIOD (T the shortest contact
-#: period or collision time) and, with linear dashpots, m_eff / (c
-#: ACCURACY_STEPS_PER_RELAXATION). Above it a run is refused unless
-#: run.accept_inaccurate_dt (two_granules.yaml at dt = 0.5, 5.6 times the bound:
-#: energy grows 6.4 %).
-ACCURACY_STEPS_PER_PERIOD = 50
-ACCURACY_STEPS_PER_RELAXATION = 40
-
-
-def default_dt(model: Model, t_end: float = math.inf) -> float:
-    """1/200 of the shortest contact period (or collision time; 1/800 when an
-    exponent, walls' included, is below NEAR_ONE_EXPONENT), at most t_end/100,
-    shortened so that a whole number of steps ends exactly at a finite t_end.
-    With dashpots or a sine-driven wall, also at most what they allow
-    (:func:`.forced_setup.forced_dt_limit`).
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene, scene units.
-    t_end : float
-        End of the run, scene units of time (``inf``: no such bound).
-
-    Returns
-    -------
-    float
-        The step, scene units of time.
-    """
-    T = model.shortest_period()
-    steps = (NEAR_ONE_STEPS_PER_PERIOD if smallest_exponent(model) < NEAR_ONE_EXPONENT
-             else _DEFAULT_STEPS_PER_PERIOD)
-    dt = T / steps if math.isfinite(T) else 1e-2
-    if is_forced(model):
-        dt = min(dt, forced_dt_limit(model))
-    dt = min(dt, t_end / 100)
-    if math.isfinite(t_end):
-        dt = t_end / math.ceil(t_end / dt * (1 - 1e-12))
-    return dt
-
-
-def smallest_exponent(model: Model) -> float:
-    """The smallest contact exponent n of the chain's contacts and walls (inf: none).
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene.
-
-    Returns
-    -------
-    float
-        Dimensionless.
-    """
-    n = [float(x) for x in model.n]
-    if model.features.left_wall:
-        n.append(float(model.walls[2]))
-    if model.features.right_wall:
-        n.append(float(model.walls[5]))
-    return min(n, default=math.inf)
-
-
-def check_dt(model: Model, dt: float) -> None:
-    """Refuse a Verlet step the stiffest contact, or the strongest linear dashpot,
-    cannot take (SimulationError names run.dt).
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene, scene units.
-    dt : float
-        The proposed step, scene units of time.
-
-    Raises
-    ------
-    SimulationError
-        When ``dt`` exceeds T/pi (T the shortest contact period or collision
-        time) or, with linear dashpots, ``dt c / m_eff >= 2``.
-    """
-    T = model.shortest_period()
-    if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
-        raise SimulationError(
-            f"run.dt: {dt:g} is too large for the stiffest contact (period or collision "
-            f"time {T:.4g}): velocity Verlet is unstable above {T / math.pi:.4g}; "
-            f"use dt <= {T / ACCURACY_STEPS_PER_PERIOD:.3g} for accuracy")
-    rate = dashpot_rate(model) if is_forced(model) else 0.0
-    if model.features.damping == DAMPING_LINEAR and dt * rate >= 2.0:
-        raise SimulationError(
-            f"run.dt: {dt:g} is too large for the strongest dashpot (relaxation time "
-            f"m_eff/c = {1 / rate:.4g}): the step is unstable from 2 m_eff/c = {2 / rate:.4g} "
-            f"on; use dt <= {1 / (ACCURACY_STEPS_PER_RELAXATION * rate):.3g} for accuracy")
-
-
-def accuracy_bound(model: Model) -> tuple[float, str]:
-    """The largest Verlet step run.dt may take without run.accept_inaccurate_dt.
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene, scene units.
-
-    Returns
-    -------
-    (float, str)
-        The bound (scene units of time; ``inf`` when nothing bounds it) and what
-        sets it, in words for a message.
-    """
-    T = model.shortest_period()
-    bound, why = math.inf, ""
-    if math.isfinite(T):
-        bound = T / ACCURACY_STEPS_PER_PERIOD
-        why = f"1/{ACCURACY_STEPS_PER_PERIOD} of the shortest contact time {T:.4g}"
-    rate = dashpot_rate(model) if is_forced(model) else 0.0
-    if model.features.damping == DAMPING_LINEAR and rate > 0.0:
-        by_dashpot = 1.0 / (ACCURACY_STEPS_PER_RELAXATION * rate)
-        if by_dashpot < bound:
-            bound = by_dashpot
-            why = (f"1/{ACCURACY_STEPS_PER_RELAXATION} of the strongest dashpot's relaxation "
-                   f"time m_eff/c = {1 / rate:.4g}")
-    return bound, why
-
-
-def check_accuracy(model: Model, dt: float) -> None:
-    """Refuse a Verlet step above :func:`accuracy_bound` (SimulationError naming run.dt).
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene, scene units.
-    dt : float
-        The step the scene asks for, scene units of time.
-
-    Raises
-    ------
-    SimulationError
-        When ``dt`` exceeds the accuracy bound; the message gives the bound and
-        run.accept_inaccurate_dt.
-    """
-    bound, why = accuracy_bound(model)
-    if dt > bound:
-        raise SimulationError(
-            f"run.dt: {dt:g} is above the accuracy bound {bound:.3g} ({why}), where the "
-            f"energy ledger is no longer trusted; use run.dt <= {bound:.3g}, or set "
-            f"run.accept_inaccurate_dt: true to run it anyway")
 
 
 def _drift_coefficients(model: Model, dt: float):
@@ -227,78 +67,6 @@ def _net_forces(model: Model, u, c, f, d0=None):
             model.d0 if d0 is None else d0, model.k, model.n, model.walls, c, f)
     specialised(net_forces, args, (0, 1, 2))(*args)
 
-
-@dataclass(frozen=True)
-class StepPlan:
-    """The Verlet run's steps: ``steps`` of ``dt``, then one of ``last_dt`` (0: none)
-    so that the run ends exactly at t_end; a frame every ``every`` steps.
-
-    Attributes
-    ----------
-    dt : float
-        Step (the scene's time unit); shortened, when ``output.dt`` is given, to
-        the largest step that divides it, so frames fall on multiples of it.
-    steps : int
-        Whole steps of ``dt`` (``steps * dt`` <= t_end).
-    last_dt : float
-        A final shorter step ending at t_end (scene's time unit), or 0 when
-        ``steps * dt`` is t_end to within 1e-9 dt.
-    every : int
-        Steps between frames.
-    note : str
-        What was shortened, for the run's warnings ('' when nothing was).
-    """
-
-    dt: float
-    steps: int
-    last_dt: float
-    every: int
-    note: str
-
-
-def step_plan(model: Model, scene: Scene) -> StepPlan:
-    """Plan the Verlet steps of a scene (see :class:`StepPlan`).
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene, scene units (sets the default dt).
-    scene : Scene
-        Its ``run`` (t_end, dt) and ``output`` (dt, every) settings.
-
-    Returns
-    -------
-    StepPlan
-        Steps, step sizes (scene units of time) and the frame cadence.
-    """
-    settings, out = scene.run, scene.output
-    t_end = settings.t_end
-    dt = settings.dt if settings.dt is not None else default_dt(model, t_end)
-    note = ""
-    if out.dt is not None:
-        per_frame = out.dt / dt
-        m = round(per_frame)
-        if m < 1 or abs(m - per_frame) > 1e-9 * per_frame:
-            m = math.ceil(per_frame)
-            shorter = out.dt / m
-            if settings.dt is not None:
-                note = (f"run.dt shortened from {dt:.6g} to {shorter:.6g} so that frames fall "
-                        f"on multiples of output.dt = {out.dt:g}")
-            dt = shorter
-        every = m
-    whole = round(t_end / dt)
-    if whole >= 1 and abs(whole * dt - t_end) <= 1e-9 * dt:
-        steps, last_dt = whole, 0.0
-    else:
-        steps = int(math.floor(t_end / dt))
-        last_dt = t_end - steps * dt
-    if out.every is not None:
-        every = out.every
-    elif out.dt is None:
-        # About 1000 frames, fewer for long chains.
-        frames_wanted = max(2, min(_DEFAULT_FRAMES, _DEFAULT_FRAME_VALUES // max(model.count, 1)))
-        every = max(1, steps // frames_wanted)
-    return StepPlan(dt=dt, steps=steps, last_dt=last_dt, every=every, note=note)
 
 
 class VerletRun:
@@ -326,18 +94,22 @@ class VerletRun:
         Also checkpoint at the last frame of the cadence before the run's last whole
         step (:attr:`end_ck`): a run to a later t_end passes through that state, so
         the finished run can be extended from it (``granular-chain run --restart``).
+    schedule : Schedule, optional
+        The run's :class:`~granular_chain.steppers.schedule.Schedule` (its step plan);
+        worked out here when not given.
     """
 
     def __init__(self, scene, model: Model, progress: Optional[bool] = None,
                  log: Optional[FrameLog] = None, thermo=None, checkpoint=None,
-                 checkpoint_every: Optional[int] = None, end_checkpoint: bool = False):
+                 checkpoint_every: Optional[int] = None, end_checkpoint: bool = False,
+                 schedule: Optional[Schedule] = None):
         settings = scene.run
         self.model, self.thermo = model, thermo
         self.on_checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
         self.next_ck = None
         self.T = model.shortest_period()  # period or collision time of the stiffest contact
         self.log = log if log is not None else FrameLog()
-        self.plan = plan = step_plan(model, scene)
+        self.plan = plan = step_plan(model, scene) if schedule is None else schedule.plan
         if settings.check_dt:
             check_dt(model, plan.dt)
         self.t_end, self.max_steps = settings.t_end, settings.max_steps
@@ -858,9 +630,9 @@ class VerletRun:
         if scan.problem != NO_PROBLEM:
             message = f"{_passed(scan, self.chain.olim)} at t = {t_now:.6g}; " + \
                 OVERLAP_ADVICE
-            if math.isfinite(T) and dt > _STABILITY_FRACTION * T:
+            if math.isfinite(T) and dt > STABILITY_FRACTION * T:
                 message += (f"; or reduce run.dt: {dt:g} exceeds the stability limit "
-                            f"{_STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
+                            f"{STABILITY_FRACTION * T:.4g} (run.check_dt is off)")
             return Status.OVERLAP, message
         ke, pe = scan.kinetic, scan.potential
         balance = abs(ke + pe + ledger[0] - sync[0] + ledger[1] - self.e0)
