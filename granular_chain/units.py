@@ -22,11 +22,11 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .laws.damping import DAMPING_LINEAR
+from .laws.damping import DAMPING_LINEAR, dashpot_rate
 from .laws.wall_motion import WALL_PULSE, WALL_SINE, WALL_VELOCITY
 
 __all__ = ["scales", "scaled_parameters", "scaled_coulomb", "scaled_viscous", "speed_scale",
-           "internal_scales", "scaled_model", "scaled_wall_motion", "dashpot_rate", "UnitFactors", "unit_factors"]
+           "internal_scales", "scaled_model", "scaled_wall_motion", "UnitFactors", "unit_factors"]
 
 
 def scales(m: float, k: float, n: float, v0: float) -> tuple[float, float]:
@@ -174,26 +174,6 @@ def internal_scales(model) -> Optional[tuple[float, float, float]]:
     if not (1e-100 < A < 1e100 and 1e-100 < B < 1e100 and 1e-100 < A / B < 1e100):
         return None
     return M, A, B
-
-
-def dashpot_rate(model) -> float:
-    """Largest damping rate c/m of a linear dashpot (1/time; 0 otherwise): a dashpot
-    far faster than the collision sets the time scale, as a drag does.
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene, scene units.
-
-    Returns
-    -------
-    float
-        ``max(c) * max(1/m)``, 1/time in scene units; 0 without linear dashpots.
-    """
-    if model.features.damping != DAMPING_LINEAR or model.count < 1:
-        return 0.0
-    c = np.concatenate([model.damping, model.wall_damping])
-    return float(np.max(c)) * float(np.max(model.inv_mass))
 
 
 def scaled_model(model, M: float, A: float, B: float):

@@ -490,7 +490,8 @@ def test_step_plan_keeps_a_dividing_dt_bit_for_bit():
     assert (p.dt, p.steps, p.total_steps) == (0.03, 333, 334)
     assert p.last_dt == pytest.approx(0.01, rel=1e-12) and p.steps * p.dt + p.last_dt == 10.0
     for t_end, k in ((10.0, 1.0), (7.3, 3.7), (1e3, 1e4)):
-        sc = scene_from_dict(scene(**{"run.t_end": t_end, "contacts.stiffness": k}))
+        sc = scene_from_dict(scene(**{"run.t_end": t_end, "contacts.stiffness": k,
+                                      "run.dt": None}))
         model = build_model(sc)
         p = step_plan(model, sc)
         assert p.dt == default_dt(model, t_end) and p.last_dt == 0.0

@@ -26,6 +26,7 @@ no dashpot at all); ``coefficient`` is ``c`` (mass/time) or ``A`` (time).
 import math
 
 import numba
+import numpy as np
 
 from .contact import LAW_HERTZ, LAW_LINEAR, contact_force
 
@@ -34,7 +35,7 @@ DAMPING_LINEAR = 1
 DAMPING_VISCOELASTIC = 2
 
 __all__ = ["DAMPING_NONE", "DAMPING_LINEAR", "DAMPING_VISCOELASTIC", "dashpot_force",
-           "damped_contact_force", "dashpot_primitive"]
+           "damped_contact_force", "dashpot_primitive", "dashpot_rate"]
 
 
 @numba.njit(inline="always", cache=True)
@@ -126,3 +127,32 @@ def dashpot_primitive(law, damping, d, k, n, coefficient):
     if damping == DAMPING_LINEAR:
         return coefficient * d
     return coefficient * contact_force(law, d, k, n)
+
+
+def dashpot_rate(model) -> float:
+    """Largest relaxation rate of a relative velocity by a dashpot (1/time; 0 without).
+
+    A linear dashpot c between masses of reduced mass m_eff (a wall's granule
+    alone for a wall contact): c / m_eff. A viscoelastic one acts like a linear
+    dashpot A k_eff, k_eff the contact's linear stiffness: A (2 pi / T)^2 with T
+    the shortest contact time (an estimate: 0 when T is unknown).
+
+    Parameters
+    ----------
+    model : Model
+        The compiled scene, scene units.
+
+    Returns
+    -------
+    float
+        Rate in 1/time, scene units (0 without dashpots).
+    """
+    feat, m = model.features, model.mass
+    mu = np.concatenate((m[:-1] * m[1:] / (m[:-1] + m[1:]), m[:1], m[-1:]))
+    c = np.concatenate((model.damping, model.wall_damping))
+    if feat.damping == DAMPING_LINEAR and c.size:
+        return float(np.max(c / mu[: c.size]))
+    if feat.damping == DAMPING_VISCOELASTIC and c.size:
+        T = model.shortest_period()
+        return float(np.max(c)) * (2 * math.pi / T) ** 2 if math.isfinite(T) else 0.0
+    return 0.0

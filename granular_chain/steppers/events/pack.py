@@ -115,7 +115,9 @@ def linear_step_cap(model):
 
     L is the drag rate plus twice the fastest contact frequency (a chain's
     highest mode is 2 sqrt(k/m)) plus four times the fastest dashpot rate c/m
-    (a dashpot between two granules pulls both: rate 2c/m each side).
+    (a dashpot between two granules pulls both: rate 2c/m each side). A bound
+    on every mode, read from the kernel's records, so it is at least the
+    relaxation rate :func:`granular_chain.laws.damping.dashpot_rate` (c/m_eff).
 
     Parameters
     ----------

@@ -13,12 +13,12 @@ import math
 import numpy as np
 
 from ..._compile import specialised
-from ...laws.damping import DAMPING_LINEAR, DAMPING_VISCOELASTIC
+from ...laws.damping import dashpot_rate
 from ...laws.wall_motion import WALL_SINE, wall_displacement
 from ...model import Model
 from .forced import ForcedFeatures, ForcedState, Forcing, forced_start
 
-__all__ = ["is_forced", "forced_records", "forced_dt_limit", "dashpot_rate", "wall_positions",
+__all__ = ["is_forced", "forced_records", "forced_dt_limit", "wall_positions",
            "walls_at", "body_work", "FORCED_STATE_ARRAYS"]
 
 #: Steps per damping time m_eff/c of the fastest dashpot (default dt), and per
@@ -87,35 +87,6 @@ def forced_records(model: Model, state, stop_mode: int):
     args = (features, state, forcing, fstate, 0.0)
     specialised(forced_start, args, (0,))(*args)
     return features, forcing, fstate
-
-
-def dashpot_rate(model: Model) -> float:
-    """Largest relaxation rate of a relative velocity by a dashpot (1/time; 0 without).
-
-    A linear dashpot c between masses of reduced mass m_eff (a wall's granule
-    alone for a wall contact): c / m_eff. A viscoelastic one acts like a linear
-    dashpot A k_eff, k_eff the contact's linear stiffness: A (2 pi / T)^2 with T
-    the shortest contact time (an estimate: 0 when T is unknown).
-
-    Parameters
-    ----------
-    model : Model
-        The compiled scene, scene units.
-
-    Returns
-    -------
-    float
-        Rate in 1/time, scene units (0 without dashpots).
-    """
-    feat, m = model.features, model.mass
-    mu = np.concatenate((m[:-1] * m[1:] / (m[:-1] + m[1:]), m[:1], m[-1:]))
-    c = np.concatenate((model.damping, model.wall_damping))
-    if feat.damping == DAMPING_LINEAR and c.size:
-        return float(np.max(c / mu[: c.size]))
-    if feat.damping == DAMPING_VISCOELASTIC and c.size:
-        T = model.shortest_period()
-        return float(np.max(c)) * (2 * math.pi / T) ** 2 if math.isfinite(T) else 0.0
-    return 0.0
 
 
 def forced_dt_limit(model: Model) -> float:

@@ -13,10 +13,10 @@ from __future__ import annotations
 import math
 
 from ...errors import SimulationError
-from ...laws.damping import DAMPING_LINEAR
+from ...laws.damping import DAMPING_LINEAR, dashpot_rate
 from ...model import Model
 from ..schedule import StepPlan, plan_steps
-from .forced_setup import dashpot_rate, forced_dt_limit, is_forced
+from .forced_setup import forced_dt_limit, is_forced
 
 __all__ = ["default_dt", "verlet_dt", "step_plan", "smallest_exponent", "check_dt", "accuracy_bound", "check_accuracy",
            "ACCURACY_STEPS_PER_PERIOD", "ACCURACY_STEPS_PER_RELAXATION", "NEAR_ONE_EXPONENT",

@@ -1,0 +1,131 @@
+"""``run``: the stepper, when to stop, tolerances and ``stages``."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Optional, Union
+
+from pydantic import (
+    BeforeValidator,
+    Field,
+    model_validator,
+)
+
+from .values import Bool, Finite, Int, Positive, _FieldProblem, _Strict, _index_key, _name
+
+
+#: The options only one stepper reads, by ``run.stepper``: ``run.dt`` and
+#: ``run.check_dt`` (Verlet's time step), ``output.events`` (Verlet's event log:
+#: the event stepper always logs) and ``output.thermo`` (steps between thermo
+#: lines: the event stepper writes one after each 1/20 of t_end); ``run.rtol``,
+#: ``run.atol`` and ``run.max_events`` (the event stepper's series tolerances and
+#: event cap). Every other field of ``run`` and ``output`` is read by both.
+#: Default of ``run.energy_tolerance`` (relative ledger error): see its description.
+DEFAULT_ENERGY_TOLERANCE = 1e-2
+
+STEPPER_OPTIONS = {
+    "verlet": ("run.dt", "run.check_dt", "run.accept_inaccurate_dt", "output.events",
+               "output.thermo"),
+    "event": ("run.rtol", "run.atol", "run.max_events"),
+}
+
+
+#: Granule velocities given by index: {index: value}.
+SparseVelocity = dict[Annotated[int, BeforeValidator(_index_key)], Finite]
+
+
+class Stage(_Strict):
+    """One stage of a staged run (``run.stages``): the run goes on from the state the
+    stage before it ended in, changed as the stage says, until the stage's t_end.
+
+    Only granule velocities change at a stage's start, and only those listed; the
+    change's energy enters the ledger as ``stage_work``. The first stage runs the
+    scene as written from t = 0.
+    """
+
+    t_end: Positive = Field(..., description="The stage ends at this time (the run's "
+                            "clock, from t = 0 at the first stage's start); strictly "
+                            "greater than the stage before's.")
+    name: Optional[Annotated[str, BeforeValidator(_name)]] = Field(
+        None, description="A name for the stage, recorded in summary.json (default "
+        "stage<k>, k from 0).")
+    velocity: SparseVelocity = Field(
+        default_factory=dict, description="Velocities set at the stage's start, "
+        "{index: value} (e.g. {0: 0.5} strikes granule 0); the others keep theirs. "
+        "Not in the first stage (granules.velocity sets the start).")
+    velocity_add: SparseVelocity = Field(
+        default_factory=dict, description="Velocities added at the stage's start, "
+        "{index: change}, after run.stages[k].velocity. Not in the first stage.")
+
+    def changes(self) -> bool:
+        """Whether the stage changes the state at its start."""
+        return bool(self.velocity or self.velocity_add)
+
+
+class Run(_Strict):
+    """How to step and when to stop (:data:`STEPPER_OPTIONS`: which fields belong to
+    one stepper)."""
+
+    stepper: Literal["verlet", "event"] = Field("verlet", description="Time stepper.")
+    dt: Optional[Positive] = Field(
+        None, description="Verlet time step; default 1/200 of the shortest contact period.")
+    t_end: Positive = Field(10.0, description="Stop at this time at the latest.")
+    stop: Union[Literal["t_end", "separation", "rest"], list[Literal["separation", "rest"]]] = Field(
+        "t_end",
+        description="Extra stop condition(s) besides t_end: 'separation' = first opening of "
+        "contact stop_contact after it has been closed, 'rest' = every granule at rest "
+        "(exactly, held by static friction); a list stops at whichever comes first.")
+
+    @property
+    def stop_conditions(self) -> set:
+        s = self.stop
+        return set(s) if isinstance(s, list) else ({s} - {"t_end"})
+    stop_contact: Annotated[int, Int] = Field(0, ge=0, description="Contact index for stop: separation.")
+    max_steps: Annotated[int, Int] = Field(2_000_000_000, ge=1, description="Refuse to take more steps.")
+    energy_tolerance: Optional[Positive] = Field(
+        DEFAULT_ENERGY_TOLERANCE, description="Largest relative energy-ledger error a "
+        "successful run may have: a run that misses it ends with status inaccurate (exit "
+        "status 1); null: no such judgement. Default 0.01: every shipped scene at its own dt "
+        "keeps its Verlet ledger within 1.2e-4, so 0.01 flags only runs whose energy is "
+        "visibly wrong (chain_walls.yaml with exponents 1.001: 0.046 at its default step). "
+        "The event stepper also holds its runs to the far tighter tolerance it promises.")
+    check_dt: Bool = Field(
+        True, description="Refuse a Verlet dt above the stability limit of the stiffest "
+        "contact (turn off only to study instability: the run then stops at the first "
+        "non-finite state with status nonfinite); off, run.dt is not held to the accuracy "
+        "bound either.")
+    accept_inaccurate_dt: Bool = Field(
+        False, description="Run a Verlet run.dt above the accuracy bound (1/50 of the "
+        "shortest contact period or collision time; with linear dashpots also 1/40 of the "
+        "shortest relaxation time m_eff/c), which is otherwise refused before the run with "
+        "the bound in the message. The run is still judged by run.energy_tolerance.")
+    rtol: Positive = Field(1e-12, description="Relative tolerance (event stepper, n != 2).")
+    atol: Positive = Field(1e-14, description="Absolute tolerance (event stepper, n != 2).")
+    max_events: Annotated[int, Int] = Field(1_000_000, ge=1, description="Event stepper: most events.")
+    stages: Optional[list[Stage]] = Field(
+        None, description="Run in stages, one after another in one run folder: each "
+        "goes on from the state the stage before ended in, with the velocities its "
+        "fields set or add, to its own t_end (e.g. settle under gravity, then strike). "
+        "run.t_end may be left out (it is the last stage's) or equal to it. Not with "
+        "run.stop conditions, moving walls, output.checkpoint_every or output.thermo; "
+        "granular-chain run --restart does not continue a staged run.", min_length=1)
+
+    @model_validator(mode="after")
+    def _stage_times(self) -> "Run":
+        """Stage ends strictly increasing; run.t_end, when given, the last stage's."""
+        if not self.stages:
+            return self
+        for k in range(1, len(self.stages)):
+            if not self.stages[k].t_end > self.stages[k - 1].t_end:
+                raise _FieldProblem(f"run.stages[{k}].t_end", (
+                    f"{self.stages[k].t_end:g} is not after the stage before's t_end "
+                    f"{self.stages[k - 1].t_end:g}: stage ends must increase strictly"))
+        first, last = self.stages[0], self.stages[-1].t_end
+        if first.changes():
+            raise _FieldProblem(f"run.stages[0].{'velocity' if first.velocity else 'velocity_add'}",
+                                "the first stage starts from the scene as written: give "
+                                "the starting velocities in granules.velocity")
+        if "t_end" in self.model_fields_set and self.t_end != last:
+            raise _FieldProblem("run.t_end", f"is {self.t_end:g} but the last stage ends at "
+                                f"{last:g}: leave run.t_end out, or make them equal")
+        self.__dict__["t_end"] = last  # (an assignment would validate the model again)
+        return self
