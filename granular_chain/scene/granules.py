@@ -112,7 +112,13 @@ class Granules(_Strict):
 
     def initial_gaps(self) -> np.ndarray:
         """Gaps of the N-1 contacts at t = 0: from the state file's positions when
-        given, else granules.gap (0-d for one value)."""
+        given, else granules.gap.
+
+        Returns
+        -------
+        ndarray, shape (N-1,) or ()
+            Gaps (length; negative: an initial overlap); 0-d for one value of granules.gap.
+        """
         n = self.count
         if self._x0 is not None:
             radius = np.broadcast_to(_array(self.radius, n), (n,))

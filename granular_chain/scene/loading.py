@@ -17,7 +17,7 @@ from .values import SceneError
 
 
 def scene_from_dict(data: Any, source: str = "<scene>", *, stored: bool = False) -> Scene:
-    """Validate a mapping into a :class:`Scene`, raising :class:`SceneError` on any problem.
+    """Validate a mapping into a :class:`~granular_chain.scene.Scene`, raising :class:`~granular_chain.scene.SceneError` on any problem.
 
     ``stored``: the scene of a finished run, read back for its record; a state file
     it started from is then not read again (it may have moved since).
@@ -58,7 +58,7 @@ def load_scene(path: Union[str, Path], overrides: Optional[list[str]] = None) ->
     path : str or Path
         YAML scene file.
     overrides : list of str, optional
-        ``dotted.path=value`` items applied before validation (see :func:`apply_overrides`).
+        ``dotted.path=value`` items applied before validation (see :func:`~granular_chain.scene.apply_overrides`).
 
     Returns
     -------

@@ -77,6 +77,7 @@ class Run(_Strict):
 
     @property
     def stop_conditions(self) -> set:
+        """The stop conditions besides t_end: a subset of {"separation", "rest"}."""
         s = self.stop
         return set(s) if isinstance(s, list) else ({s} - {"t_end"})
     stop_contact: Annotated[int, Int] = Field(0, ge=0, description="Contact index for stop: separation.")

@@ -109,5 +109,7 @@ class BodyForce(_Strict):
 
 
 class Walls(_Strict):
+    """The walls at the chain's ends (absent: an open end)."""
+
     left: Optional[Wall] = None
     right: Optional[Wall] = None

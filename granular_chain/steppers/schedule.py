@@ -232,7 +232,19 @@ def _check_step_count(scene, model: Model, asked: float) -> None:
 
 
 def event_schedule(scene) -> Schedule:
-    """The event stepper's :class:`Schedule` of a scene (no Model needed)."""
+    """The event stepper's :class:`Schedule` of a scene (no Model needed).
+
+    Parameters
+    ----------
+    scene : Scene
+        Its ``output`` (dt, every), ``run.t_end`` and ``granules.count``.
+
+    Returns
+    -------
+    Schedule
+        Frames at event batches (N <= FRAMES_AT_EVENTS_MAX_N), at the output.dt
+        cadence, or :func:`default_frames` spread over t_end; no step plan.
+    """
     out, n = scene.output, scene.granules.count
     at_events = n <= FRAMES_AT_EVENTS_MAX_N
     cadence = 0
