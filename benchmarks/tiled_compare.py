@@ -135,7 +135,8 @@ def scene_cases() -> dict:
             elif run.get("stepper") == "event":
                 continue
             run["stepper"] = stepper
-            run["t_end"] = min(float(run.get("t_end", 20.0)), 20.0)
+            if not run.get("stages"):  # (a staged run ends with its last stage)
+                run["t_end"] = min(float(run.get("t_end", 20.0)), 20.0)
             d["output"] = {"trajectory": False}
             out[f"scene/{path.stem}/{stepper}"] = d
     return out
