@@ -9,6 +9,7 @@ pool for large maps.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import multiprocessing
 import os
@@ -19,7 +20,7 @@ from typing import Optional
 import numpy as np
 
 from ..codes import Status
-from ..interrupts import pool_worker_signals, stop_signals
+from ..interrupts import held_signals, pool_worker_signals, stop_signals
 from ..model import friction_features
 from ..scene import scene_from_dict
 from ..simulate import simulate
@@ -202,8 +203,13 @@ def _run_groups(groups, workers, ends):
     _MAP_WORK.update({g: w[:4] for g, w in groups.items()})
     try:
         if workers > 1 and len(tasks) > 1:
-            with multiprocessing.get_context("fork").Pool(
-                    min(workers, len(tasks)), initializer=pool_worker_signals) as pool:
+            with contextlib.ExitStack() as stack:
+                # a signal while the pool starts acts once the pool is in the block that
+                # ends it (terminate): one cut into Pool() left its workers running,
+                # and a replacement the pool forked meanwhile orphaned
+                with held_signals():
+                    pool = stack.enter_context(multiprocessing.get_context("fork").Pool(
+                        min(workers, len(tasks)), initializer=pool_worker_signals))
                 parts = [(t[0],) + r for t, r in zip(tasks, pool.map(_map_task, tasks,
                                                                     chunksize=1))]
         else:
