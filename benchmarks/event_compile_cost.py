@@ -91,6 +91,13 @@ def measure(feature_sets):
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
+def _commit(root: Path) -> str:
+    """The checkout's commit (short hash), not a machine path; "unknown" outside git."""
+    p = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
+                       capture_output=True, text=True)
+    return p.stdout.strip() or "unknown"
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeats", type=int, default=1, help="cold runs per feature set (min kept)")
@@ -112,7 +119,7 @@ def main():
               flush=True)
     total = {k: sum(r[k] for r in rows.values()) for k in ("wall", "cpu")}
     print(f"{'sum':22s} wall {total['wall']:7.1f} s   cpu {total['cpu']:7.1f} s")
-    out = {"checkout": str(Path(granular_chain.__file__).resolve().parents[1]),
+    out = {"checkout": _commit(Path(granular_chain.__file__).resolve().parents[1]),
            "python": sys.version.split()[0], "repeats": args.repeats,
            "features": rows, "sum": total}
     if args.shared:

@@ -73,7 +73,7 @@ def prepare_run(scene: Scene) -> Preflight:
     if scene.run.stepper == "event":
         check_exponents(model)
     if scene.run.stepper == "verlet" and scene.run.check_dt:
-        dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
+        dt = verlet_dt(scene, model)
         check_dt(model, dt)
         if scene.run.dt is not None and not scene.run.accept_inaccurate_dt:
             check_accuracy(model, dt)

@@ -22,7 +22,8 @@ from .codes import Status
 from .interrupts import Stopped
 from .model import build_model
 from .notices import COMPILE_NOTICE, CompileNotice, OverlapWarning, TimeStepWarning
-from .simulate import default_dt, simulate
+from .simulate import simulate
+from .steppers.verlet.timestep import verlet_dt
 
 __all__ = ["prepare_kernels", "NOTICE"]
 
@@ -37,7 +38,7 @@ def _two_step_copy(scene, model=None):
     tiny.run.stages = None  # (the first stage's kernels are every stage's)
     model = model if model is not None else build_model(scene)
     if scene.run.stepper == "verlet":
-        dt = scene.run.dt if scene.run.dt is not None else default_dt(model, scene.run.t_end)
+        dt = verlet_dt(scene, model)
         tiny.run.dt = dt
         tiny.run.t_end = min(2 * dt, scene.run.t_end)
     else:
