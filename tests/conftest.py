@@ -65,10 +65,24 @@ def finish(proc: subprocess.Popen, what: str, seconds: float = HUNG_AFTER, log=N
         out, err = proc.communicate(timeout=10)
     except subprocess.TimeoutExpired:
         proc.kill()
-        out, err = proc.communicate()
+        out, err = _read_after_kill(proc)
     if log is not None:
         err = open(log, errors="replace").read()
     pytest.fail(f"hung: {what} had not ended after {seconds:.0f} s; its stacks:\n{err}")
+
+
+def _read_after_kill(proc: subprocess.Popen):
+    """What a killed child wrote, read for at most 10 s: a grandchild it left behind
+    (a pool worker) can hold its pipes open, and reading to their end would wait for
+    that grandchild too."""
+    try:
+        return proc.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        for pipe in (proc.stdout, proc.stderr):
+            if pipe is not None:
+                pipe.close()
+        proc.wait()
+        return None, "(its pipes were still held open by a process it started)"
 
 
 def wait_until_stepping(proc: subprocess.Popen, parent, name: str, seconds: float = HUNG_AFTER):
