@@ -13,7 +13,10 @@ hundreds of flattened arguments (``docs/performance.md``, "Compile time"). Numba
 - ``InlineWorker.inline_function`` runs the untyped compiler passes on the callee
   at every call site and for every specialisation compiled, although their result
   depends only on the callee and the compile flags. It is kept here, one per
-  callee and flags, and copied by ``inline_ir`` before each use as before.
+  callee and flags, and copied by ``inline_ir`` before each use as before. (The
+  module constants an inlined callee reads are then those of its first inline in
+  the process, as a kernel loaded from numba's on-disk cache keeps those it was
+  compiled with.)
 
 Upstream: numba issues 8989 and 9204, numba-cuda issue 688. :func:`linear_inlining`
 applies both while one of the engine's kernels compiles and restores numba's own
@@ -94,7 +97,15 @@ def applies() -> bool:
 
 @contextlib.contextmanager
 def linear_inlining():
-    """Compile with the faster inliner inside the block, numba's own outside it."""
+    """Compile with the faster inliner inside the block, numba's own outside it.
+
+    Yields
+    ------
+    None
+        Numba's ``InlineWorker`` has this module's ``inline_ir`` and
+        ``inline_function`` until the block ends (also on an exception); a block
+        inside another leaves them to the outer one.
+    """
     if not _FASTER or _Worker.inline_ir is _FASTER["inline_ir"]:
         yield  # (numba unknown to this module, or already inside such a block)
         return

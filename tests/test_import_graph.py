@@ -14,8 +14,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "granular_chain"
 STAGES = [
     # what every stage may use: errors, codes, warnings, signals, compiling, the laws,
     # units, the CF names of stored variables, run folders
-    {"version", "errors", "codes", "notices", "extras", "interrupts", "_compile", "plotting",
-     "progress", "distributions", "initial_state", "checkpoint", "conventions", "laws",
+    {"version", "errors", "codes", "notices", "extras", "interrupts", "_compile", "_inlining",
+     "plotting", "progress", "distributions", "initial_state", "checkpoint", "conventions", "laws",
      "units", "rundir"},
     {"scene", "forces"},                          # the scene; the neighbour loop of the laws
     {"model", "restitution"},                     # scene -> arrays and constants
