@@ -20,8 +20,10 @@ hundreds of flattened arguments (``docs/performance.md``, "Compile time"). Numba
 
 Upstream: numba issues 8989 and 9204, numba-cuda issue 688. :func:`linear_inlining`
 applies both while one of the engine's kernels compiles and restores numba's own
-methods after; the compiled code is the same (the same IR reaches typing), which
-``benchmarks/tiled_compare.py`` checks bit for bit. If the installed numba's
+methods after. The same IR reaches typing, up to the names of its variables (numba
+numbers a name by how often it was inlined), so the machine code is the same:
+``tests/test_inlining.py`` compares the LLVM IR, ``benchmarks/tiled_compare.py`` the
+results, bit for bit. If the installed numba's
 ``inline_ir`` is not the text this rewrites, numba's own is used unchanged.
 """
 
