@@ -34,7 +34,8 @@ os.environ.setdefault("PYTHONFAULTHANDLER", "1")
 HUNG_AFTER = 900.0
 
 
-def finish(proc: subprocess.Popen, what: str, seconds: float = HUNG_AFTER, log=None):
+def finish(proc: subprocess.Popen, what: str, seconds: float = HUNG_AFTER, log=None,
+           grace: float = 10.0):
     """Wait for ``proc`` to end, reading its pipes; if it has not ended after
     ``seconds``, make it print its threads' stacks (SIGABRT: Python's fault handler),
     kill it and fail the test with what it wrote on stderr.
@@ -49,6 +50,9 @@ def finish(proc: subprocess.Popen, what: str, seconds: float = HUNG_AFTER, log=N
         How long to wait.
     log : path-like, optional
         The file the child's stderr goes to, when it is not a pipe.
+    grace : float
+        Seconds given to the child to print its stacks after SIGABRT, and to its pipes
+        after it is killed.
 
     Returns
     -------
@@ -62,21 +66,21 @@ def finish(proc: subprocess.Popen, what: str, seconds: float = HUNG_AFTER, log=N
         pass
     proc.send_signal(signal.SIGABRT)
     try:
-        out, err = proc.communicate(timeout=10)
+        out, err = proc.communicate(timeout=grace)
     except subprocess.TimeoutExpired:
         proc.kill()
-        out, err = _read_after_kill(proc)
+        out, err = _read_after_kill(proc, grace)
     if log is not None:
         err = open(log, errors="replace").read()
     pytest.fail(f"hung: {what} had not ended after {seconds:.0f} s; its stacks:\n{err}")
 
 
-def _read_after_kill(proc: subprocess.Popen):
-    """What a killed child wrote, read for at most 10 s: a grandchild it left behind
-    (a pool worker) can hold its pipes open, and reading to their end would wait for
-    that grandchild too."""
+def _read_after_kill(proc: subprocess.Popen, grace: float):
+    """What a killed child wrote, read for at most ``grace`` seconds: a grandchild it
+    left behind (a pool worker) can hold its pipes open, and reading to their end would
+    wait for that grandchild too."""
     try:
-        return proc.communicate(timeout=10)
+        return proc.communicate(timeout=grace)
     except subprocess.TimeoutExpired:
         for pipe in (proc.stdout, proc.stderr):
             if pipe is not None:

@@ -44,7 +44,7 @@ def test_a_hung_child_whose_grandchild_holds_its_pipes_still_fails_the_test():
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         with pytest.raises(pytest.fail.Exception) as failed:
-            finish(proc, "the deaf parent", seconds=1.0)
+            finish(proc, "the deaf parent", seconds=1.0, grace=1.0)
         assert "hung: the deaf parent had not ended after 1 s" in str(failed.value)
         assert "still held open" in str(failed.value)
         assert proc.returncode == -signal.SIGKILL
