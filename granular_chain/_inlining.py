@@ -23,8 +23,8 @@ applies both while one of the engine's kernels compiles and restores numba's own
 methods after. The same IR reaches typing, up to the names of its variables (numba
 numbers a name by how often it was inlined), so the machine code is the same:
 ``tests/test_inlining.py`` compares the LLVM IR, ``benchmarks/tiled_compare.py`` the
-results, bit for bit. If the installed numba's
-``inline_ir`` is not the text this rewrites, numba's own is used unchanged.
+results, bit for bit. If the installed numba's ``inline_ir`` is not the text this
+rewrites, numba's own is used unchanged.
 """
 
 from __future__ import annotations
@@ -85,11 +85,10 @@ def _inline_function_once(self, caller_ir, block, i, function, arg_typs=None):
 
 
 _ORIGINAL = {"inline_ir": _Worker.inline_ir, "inline_function": _Worker.inline_function}
-_FASTER = {"inline_ir": _inline_ir_copying_once()}
-if _FASTER["inline_ir"] is not None:
-    _FASTER["inline_function"] = _inline_function_once
-else:
-    _FASTER = {}
+_REWRITTEN = _inline_ir_copying_once()
+#: What linear_inlining puts in place: nothing when numba is not the one rewritten.
+_FASTER = {} if _REWRITTEN is None else {"inline_ir": _REWRITTEN,
+                                         "inline_function": _inline_function_once}
 
 
 def applies() -> bool:
