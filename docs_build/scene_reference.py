@@ -137,19 +137,34 @@ def _is_recipe(schema: dict, node: dict) -> bool:
     return "distribution" in _resolve(schema, node).get("properties", {})
 
 
-def _submodel(schema: dict, node: dict) -> dict | None:
-    """The object schema a property nests (a model, possibly Optional), else None."""
-    for alt in _alternatives(node):
-        target = _resolve(schema, alt)
-        if "properties" in target and not _is_recipe(schema, alt):
-            return target
-    return None
+def _submodels(schema: dict, node: dict) -> list[dict]:
+    """The object schemas a property nests: a model, possibly Optional, or each
+    member of a union of models (``run``: one per stepper); [] if none."""
+    return [_resolve(schema, alt) for alt in _alternatives(node)
+            if "properties" in _resolve(schema, alt) and not _is_recipe(schema, alt)]
+
+
+def _merged(rows: list[tuple[str, dict, bool]]) -> Iterator[tuple[str, dict, bool]]:
+    """Rows of the members of a union, each path once in first-seen order; a field
+    every member holds as a different constant (``run.stepper``) lists them all."""
+    by_path: dict[str, tuple[str, dict, bool]] = {}
+    for path, prop, required in rows:
+        if path not in by_path:
+            by_path[path] = (path, prop, required)
+            continue
+        first = by_path[path][1]
+        consts = first.get("enum", [first["const"]] if "const" in first else None)
+        if consts is not None and "const" in prop and prop["const"] not in consts:
+            merged = {k: v for k, v in first.items() if k != "const"}
+            by_path[path] = (path, {**merged, "enum": [*consts, prop["const"]]}, required)
+    yield from by_path.values()
 
 
 def walk(schema: dict, node: dict | None = None, prefix: str = "") -> Iterator[tuple[str, dict, bool]]:
     """Every field as (dotted path, property schema, required), depth first.
 
-    Models nested in a field (``granules.friction``) are descended into, and so
+    Models nested in a field (``granules.friction``) are descended into, each
+    member of a union of models too (``run``: the fields of both steppers), and so
     are the models of a list of them (``run.stages``: its row, then its items'
     fields as ``run.stages[].t_end``); seeded distributions are not (see
     :func:`recipe_fields`).
@@ -158,10 +173,10 @@ def walk(schema: dict, node: dict | None = None, prefix: str = "") -> Iterator[t
     required = set(node.get("required", ()))
     for name, prop in node.get("properties", {}).items():
         path = f"{prefix}{name}"
-        sub = _submodel(schema, prop)
+        subs = _submodels(schema, prop)
         items = _item_model(schema, prop)
-        if sub is not None:
-            yield from walk(schema, sub, path + ".")
+        if subs:
+            yield from _merged([row for sub in subs for row in walk(schema, sub, path + ".")])
         elif items is not None:
             yield path, prop, name in required
             yield from walk(schema, items, path + "[].")

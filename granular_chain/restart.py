@@ -34,7 +34,7 @@ from typing import Optional
 from .checkpoint import CHECKPOINT, load_checkpoint, save_checkpoint, scene_difference
 from .rundir import (MARKER, OutputError, _pid_alive, check_out, check_partial, read_marker,
                      remove_files)
-from .scene import Scene, apply_overrides, load_scene, scene_from_dict
+from .scene import Scene, apply_overrides, load_scene, own_stepper_options, scene_from_dict
 from .steppers.schedule import thermo_every
 from .steppers.verlet.timestep import step_plan
 
@@ -338,6 +338,7 @@ def plan_restart(args) -> RestartPlan:
         _, stored = _read_checkpoint(source)
     else:
         stored = _summary_scene(source)
+    stored = own_stepper_options(stored)
     scene, scene_source, overrides, writers = _continued_scene(args, source, marker, stored)
     _check_scene(source, stored, scene, complete)
     partial = ".partial-" in source.name

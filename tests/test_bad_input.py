@@ -37,8 +37,7 @@ BASE = {
     "contacts": {"exponent": 2.0, "stiffness": 1.0},
     "walls": {"left": {"gap": 0.1, "stiffness": 1.0, "exponent": 2.0}},
     "run": {"stepper": "verlet", "dt": 0.01, "t_end": 1.0, "max_steps": 1_000_000,
-            "rtol": 1e-12, "atol": 1e-14, "stop_contact": 0,
-            "check_dt": True},
+            "stop_contact": 0},
     "output": {"every": 10, "trajectory": False},
 }
 HERTZ = {"contacts": {"exponent": 2.5, "stiffness": "hertz"},
@@ -100,6 +99,7 @@ SCALARS = ["walls.left.gap", "walls.left.stiffness", "walls.left.exponent", "run
            "run.t_end", "run.rtol", "run.atol", "output.dt"]
 INTEGERS = ["granules.count", "run.stop_contact", "run.max_steps", "run.max_events",
             "output.every"]
+EVENT_ONLY = {"run.rtol", "run.atol", "run.max_events"}
 BAD_VALUES = {"bool": True, "string": "1", "null": None, "nan": float("nan"),
               "inf": float("inf"), "negative": -1, "zero": 0, "list": None}
 # (field, value name) pairs that are valid scenes: not bad input
@@ -117,6 +117,9 @@ for path in PER_GRANULE + PER_CONTACT + SCALARS + INTEGERS:
         if kind == "list":
             value = [1.0, 2.0, 3.0, 4.0] if path in PER_CONTACT else [1.0, 2.0]
         changes = {path: value}
+        if path in EVENT_ONLY:  # fields of an event stepper's run only
+            changes = {"run.stepper": "event", "run.dt": _DELETE,
+                       **changes}
         if path == "output.dt":
             changes["output.every"] = _DELETE
         add_scene(f"{path}-{kind}", scene(**changes), path, category="types")
@@ -577,3 +580,48 @@ def test_each_stepper_takes_its_own_options_and_ignores_the_others():
         assert a.status == b.status and a.steps == b.steps and a.t.size == b.t.size
         for name in ("t", "x", "v", "f"):
             assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+
+
+def test_run_is_one_stepper_and_holds_its_options_only():
+    """``run`` is the member of its stepper (a union told apart by ``run.stepper``): the
+    other stepper's options are not fields of it, so reading one is an AttributeError
+    and setting one is refused by name. Null unsets an option, which is how a Verlet
+    scene with a dt switches stepper on the command line."""
+    from granular_chain.scene import RunEvent, RunVerlet, load_scene, scene_from_dict
+
+    verlet = scene_from_dict(scene())
+    event = scene_from_dict(scene(**{"run.stepper": "event", "run.dt": _DELETE}))
+    assert type(verlet.run) is RunVerlet and type(event.run) is RunEvent
+    assert set(RunVerlet.model_fields) - set(RunEvent.model_fields) == {
+        "dt", "check_dt", "accept_inaccurate_dt"}
+    assert set(RunEvent.model_fields) - set(RunVerlet.model_fields) == {
+        "rtol", "atol", "max_events"}
+    with pytest.raises(AttributeError):
+        verlet.run.rtol
+    with pytest.raises(AttributeError):
+        event.run.dt
+    assert "rtol" not in verlet.model_dump()["run"] and "dt" not in event.model_dump()["run"]
+    assert type(scene_from_dict({"granules": {"count": 2}}).run) is RunVerlet  # the default
+    with pytest.raises(ValueError, match="run.rtol: is read by the event stepper only"):
+        verlet.run.model_validate({"stepper": "verlet", "rtol": 1e-9})
+
+
+def test_stepper_switched_on_the_command_line_with_its_step_unset(tmp_path):
+    from granular_chain.scene import RunEvent, load_scene
+
+    path = tmp_path / "s.yaml"
+    path.write_text(dump(BASE))
+    switched = load_scene(path, ["run.stepper=event", "run.dt=null", "run.rtol=1e-10"])
+    assert type(switched.run) is RunEvent and switched.run.rtol == 1e-10
+    assert switched.model_dump()["run"]["stepper"] == "event"
+
+
+def test_json_schema_offers_each_stepper_with_its_own_options():
+    from granular_chain.scene import scene_json_schema
+
+    schema = scene_json_schema()
+    members = [ref["$ref"].rsplit("/", 1)[1] for ref in schema["properties"]["run"]["oneOf"]]
+    assert members == ["RunVerlet", "RunEvent"]
+    verlet, event = (schema["$defs"][m]["properties"] for m in members)
+    assert verlet["stepper"]["const"] == "verlet" and event["stepper"]["const"] == "event"
+    assert "dt" in verlet and "dt" not in event and "rtol" in event and "rtol" not in verlet

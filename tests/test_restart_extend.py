@@ -100,6 +100,38 @@ def test_extension_goes_on_from_the_end_checkpoint(tmp_path, capsys):
     assert steps[0] == 2000 and steps[-1] > 2000
 
 
+def _store_both_steppers_options(folder: Path) -> None:
+    """Write the run's scene as it was stored when every scene held the options of
+    both steppers (a Verlet run's summary.json and checkpoint with rtol, atol and
+    max_events at their defaults)."""
+    foreign = {"rtol": 1e-12, "atol": 1e-14, "max_events": 1_000_000}
+    summary = json.loads((folder / "summary.json").read_text())
+    summary["scene"]["run"].update(foreign)
+    (folder / "summary.json").write_text(json.dumps(summary, indent=2))
+    with np.load(folder / "checkpoint.npz") as data:
+        arrays = {name: data[name] for name in data.files}
+    stored = json.loads(str(arrays["scene_json"]))
+    stored["run"].update(foreign)
+    arrays["scene_json"] = np.array(json.dumps(stored))
+    with open(folder / "checkpoint.npz", "wb") as f:
+        np.savez(f, **arrays)
+
+
+def test_run_stored_with_both_steppers_options_is_extended(tmp_path, capsys):
+    """A run folder whose scene holds the other stepper's options at their defaults
+    (as scenes were once stored) reads back without them, is still continued, and
+    equals the run straight to the later end."""
+    scene = SCENES / "two_granules.yaml"
+    a, b = tmp_path / "A", tmp_path / "B"
+    assert run(scene, "--set", "run.t_end=20.0", "--out", a) == 0
+    assert run(scene, "--set", "run.t_end=1.0", "--out", b) == 0
+    _store_both_steppers_options(b)
+    stored = json.loads((b / "summary.json").read_text())["scene"]
+    assert not hasattr(gc.scene_from_dict(stored, stored=True).run, "rtol")
+    assert run("--restart", b, "--set", "run.t_end=20.0") == 0
+    assert_same_folder(a, b)
+
+
 @pytest.mark.parametrize("t1", [4.0, 4.005, 0.03, 0.005])
 def test_end_checkpoint_continued_to_a_later_t_end(t1):
     """The state a finished run keeps, continued with a later t_end, ends bit for bit

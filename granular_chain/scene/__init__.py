@@ -23,7 +23,8 @@ from .loading import load_scene, scene_from_dict
 from .output import Output
 from .overrides import apply_overrides, set_path
 from .reading import parse_yaml_value, read_scene_data
-from .run import DEFAULT_ENERGY_TOLERANCE, STEPPER_OPTIONS, Run, Stage
+from .run import (DEFAULT_ENERGY_TOLERANCE, STEPPER_OPTIONS, Run, RunEvent, RunVerlet, Stage,
+                  own_stepper_options)
 from .schema import Scene, scene_json_schema
 from .values import MAX_SCENE_BYTES, SCALE_MAX, SCALE_MIN, SceneError
 from .walls import BodyForce, Pulse, Sine, Wall, WallMaterial, WallMotion, Walls
@@ -40,9 +41,11 @@ __all__ = [
     "parse_yaml_value",
     "MAX_SCENE_BYTES",
     "STEPPER_OPTIONS",
+    "own_stepper_options",
     "DEFAULT_ENERGY_TOLERANCE",
     "SCALE_MIN",
     "SCALE_MAX",
     "Granules", "Friction", "Material", "InitialState", "Contacts", "Damping", "Walls", "Wall",
-    "WallMotion", "WallMaterial", "Sine", "Pulse", "BodyForce", "Output", "Run", "Stage",
+    "WallMotion", "WallMaterial", "Sine", "Pulse", "BodyForce", "Output", "Run", "RunVerlet", "RunEvent",
+    "Stage",
 ]

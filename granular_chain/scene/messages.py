@@ -17,29 +17,33 @@ from .values import SceneError, _FieldProblem
 
 
 def _known_fields(model: type[BaseModel], loc: tuple) -> list[str]:
-    """Names allowed at the location of an 'extra field' error, for suggestions."""
+    """Names allowed at the location of an 'extra field' error, for suggestions
+    (``loc`` as pydantic gives it: a ``stepper[...]`` tag picks that member of ``run``)."""
+    stepper = next((str(p)[len("stepper["):-1] for p in loc
+                    if str(p).startswith("stepper[")), None)
     current: Any = model
-    for part in loc[:-1]:
+    for part in [p for p in loc if not _is_tag(p)][:-1]:
         if isinstance(part, int):
             continue
         fields = getattr(current, "model_fields", None)
         if not fields or part not in fields:
             return []
         ann = fields[part].annotation
-        current = _submodel(ann)
+        current = _submodel(ann, stepper)
         if current is None:
             return []
     return list(getattr(current, "model_fields", {}).keys())
 
 
-def _submodel(annotation) -> Optional[type[BaseModel]]:
+def _submodel(annotation, stepper: Optional[str] = None) -> Optional[type[BaseModel]]:
+    """The model an annotation holds (the member of that ``stepper`` in a union of
+    ``run`` members), else None."""
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return annotation
-    for arg in getattr(annotation, "__args__", ()) or ():
-        found = _submodel(arg)
-        if found is not None:
-            return found
-    return None
+    found = [m for m in map(_submodel, getattr(annotation, "__args__", ()) or ()) if m]
+    chosen = [m for m in found if "stepper" in m.model_fields
+              and m.model_fields["stepper"].default == stepper]
+    return (chosen or found or [None])[0]
 
 
 _TYPE_TAGS = {"float", "int", "str", "bool", "list", "dict", "none",
@@ -114,7 +118,7 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
     err_type = first["type"]
     if err_type == "extra_forbidden":
         name = str(loc[-1])
-        known = _known_fields(Scene, tuple(p for p in loc if not _is_tag(p)))
+        known = _known_fields(Scene, tuple(loc))
         close = difflib.get_close_matches(name, known, n=1)
         hint = f"; did you mean '{close[0]}'?" if close else (
             f"; known fields: {', '.join(known)}" if known else "")
@@ -126,6 +130,10 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
         whole = fp.path if not path or fp.path.startswith(path) else ".".join(
             p for p in (path, fp.path) if p)
         return SceneError(source, whole, fp.problem)
+    tag = str(first.get("ctx", {}).get("tag", ""))
+    if err_type == "union_tag_invalid" and tag.startswith("stepper["):
+        return SceneError(source, f"{path}.stepper", f"must be 'verlet' or 'event' (got "
+                          f"{tag.removeprefix('stepper[').removesuffix(']')!r})")
     if err_type == "union_tag_invalid":
         return SceneError(source, f"{path}.distribution", "must be taper, repeat, uniform, "
                           f"normal or lognormal (got {first.get('ctx', {}).get('tag')!r}; "

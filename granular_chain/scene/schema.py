@@ -16,7 +16,7 @@ from pydantic import (
 from .contacts import Contacts
 from .granules import Granules
 from .output import Output
-from .run import Run, STEPPER_OPTIONS
+from .run import Run, RunVerlet, STEPPER_OPTIONS
 from .values import _FieldProblem, _Strict, _array, _name
 from .walls import BodyForce, Walls
 
@@ -36,7 +36,7 @@ class Scene(_Strict):
     walls: Walls = Field(default_factory=Walls)
     body_force: Optional[BodyForce] = Field(
         None, description="Gravity or given forces along the chain axis (absent: none).")
-    run: Run = Field(default_factory=Run)
+    run: Run = Field(default_factory=RunVerlet)
     output: Output = Field(default_factory=Output)
 
     @model_validator(mode="after")
@@ -137,26 +137,25 @@ class Scene(_Strict):
 
     @model_validator(mode="after")
     def _options_of_the_stepper(self, info: ValidationInfo) -> "Scene":
-        """Refuse an option the chosen stepper would ignore (:data:`STEPPER_OPTIONS`):
-        one set to anything but its default. The scene of a finished run, read back
-        for its record, is taken as it was written."""
+        """Refuse an ``output`` option the chosen stepper would ignore
+        (:data:`STEPPER_OPTIONS`; the ``run`` ones are fields of one stepper's
+        :data:`Run` only): one set to anything but its default. The scene of a
+        finished run, read back for its record, is taken as it was written."""
         if (info.context or {}).get("stored"):
             return self
         stepper = self.run.stepper
         for owner, paths in STEPPER_OPTIONS.items():
-            if owner == stepper:
-                continue
             for path in paths:
                 group, name = path.split(".")
-                section = getattr(self, group)
-                default = type(section).model_fields[name].default
-                if getattr(section, name) != default:
+                if owner == stepper or group != "output":
+                    continue
+                default = Output.model_fields[name].default
+                if getattr(self.output, name) != default:
                     unset = "remove it (or set it to null)" if default is None else "remove it"
                     raise _FieldProblem(path, f"is read by the {owner} stepper only; with "
                                         f"run.stepper: {stepper} it would be ignored: {unset}, "
                                         f"or use run.stepper: {owner}")
         return self
-
 
     def _check_dissipation_and_forces(self, n: int) -> None:
         """Restitution away from n = 2 needs the speed at which e holds; per-granule

@@ -199,7 +199,8 @@ def collide(n: float = 2, eta=(0.0, 0.0), gamma=(0.0, 0.0), stepper: str = "verl
                            f"ratio {_damping_ratio(damping):.4g} >= 1: "
                            f"restitution.linear_dashpot)")
     if rest_tol is None:
-        rest_tol = default_rest_tol(n, result.dt, scene.run.rtol)
+        event_rtol = scene.run.rtol if scene.run.stepper == "event" else None
+        rest_tol = default_rest_tol(n, result.dt, event_rtol)
     return classify(result, rest_tol)
 
 
@@ -226,7 +227,8 @@ def _never_opens(n, eta, gamma, damping, tensile) -> bool:
 
 def default_rest_tol(n, dt, rtol) -> float:
     """collide()'s default rest_tol: dt^2 (Verlet; dt below NEAR_ONE_EXPONENT, where it
-    is first order: docs/verlet_convergence.md), 1e-14 (event, n = 2), else 100 rtol."""
+    is first order: docs/verlet_convergence.md), 1e-14 (event, n = 2), else 100 rtol
+    (``rtol`` the event stepper's; None for a Verlet run, which has none)."""
     if dt is not None:
         return dt if float(n) < NEAR_ONE_EXPONENT else dt ** 2
     if float(n) == 2.0:
