@@ -85,8 +85,9 @@ def test_history_check_catches_wording(tmp_path):
 
 
 def _schema_paths(schema: dict) -> set[str]:
-    """Dotted paths of every leaf field, descending through $ref/anyOf into models;
-    fields of the seeded distributions as ``<kind>.<field>``."""
+    """Dotted paths of every leaf field, descending through $ref/anyOf into models (into
+    each member of a oneOf of models: ``run``, one per stepper); fields of the seeded
+    distributions as ``<kind>.<field>``."""
     defs = schema["$defs"]
 
     def target(node):
@@ -94,13 +95,14 @@ def _schema_paths(schema: dict) -> set[str]:
 
     def leaves(model, prefix):
         for name, prop in model.get("properties", {}).items():
-            subs = [target(a) for a in prop.get("anyOf", [prop])
+            members = prop.get("anyOf") or prop.get("oneOf") or [prop]
+            subs = [target(a) for a in members
                     if "properties" in target(a) and "distribution" not in target(a)["properties"]]
-            lists = [target(a["items"]) for a in prop.get("anyOf", [prop])
+            lists = [target(a["items"]) for a in members
                      if a.get("type") == "array" and "$ref" in a.get("items", {})]
-            if subs:
-                yield from leaves(subs[0], f"{prefix}{name}.")
-            else:
+            for sub in subs:
+                yield from leaves(sub, f"{prefix}{name}.")
+            if not subs:
                 yield prefix + name
             if lists:  # a list of models (run.stages): its items' fields too
                 yield from leaves(lists[0], f"{prefix}{name}[].")
@@ -125,8 +127,10 @@ def test_scene_reference_lists_every_schema_field():
     assert sorted(paths - set(rows)) == []
     assert sorted(set(rows) - paths) == []
     # each row carries the schema's default and description
-    run = schema["$defs"]["Run"]["properties"]
+    run = schema["$defs"]["RunEvent"]["properties"]
     assert "| `1.0e-12` |" in rows["run.rtol"] and run["rtol"]["description"] in rows["run.rtol"]
+    # run.stepper tells the two members of run apart: its row offers both
+    assert "'verlet' &#124; 'event'" in rows["run.stepper"] and "| `verlet` |" in rows["run.stepper"]
     assert "| required |" in rows["granules.count"]
 
 

@@ -57,10 +57,11 @@ def test_exponents_near_one_are_refused_or_inaccurate(tmp_path, capsys):
 
 
 def test_default_energy_tolerance_is_the_schema_default():
-    from granular_chain.scene import DEFAULT_ENERGY_TOLERANCE, Run
+    from granular_chain.scene import DEFAULT_ENERGY_TOLERANCE, RunEvent, RunVerlet
 
-    assert Run().energy_tolerance == DEFAULT_ENERGY_TOLERANCE == 0.01
-    assert "0.01" in Run.model_fields["energy_tolerance"].description
+    for run in (RunVerlet, RunEvent):
+        assert run().energy_tolerance == DEFAULT_ENERGY_TOLERANCE == 0.01
+        assert "0.01" in run.model_fields["energy_tolerance"].description
 
 
 # --- run.dt against the accuracy bound ----------------------------------------

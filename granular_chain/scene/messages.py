@@ -132,8 +132,8 @@ def _explain(exc: ValidationError, source: str) -> SceneError:
         return SceneError(source, whole, fp.problem)
     tag = str(first.get("ctx", {}).get("tag", ""))
     if err_type == "union_tag_invalid" and tag.startswith("stepper["):
-        return SceneError(source, f"{path}.stepper", f"must be 'verlet' or 'event' (got "
-                          f"{tag.removeprefix('stepper[').removesuffix(']')!r})")
+        return SceneError(source, f"{path}.stepper", f"Input should be 'verlet' or 'event' "
+                          f"(got {tag.removeprefix('stepper[').removesuffix(']')!r})")
     if err_type == "union_tag_invalid":
         return SceneError(source, f"{path}.distribution", "must be taper, repeat, uniform, "
                           f"normal or lognormal (got {first.get('ctx', {}).get('tag')!r}; "
