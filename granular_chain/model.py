@@ -13,12 +13,14 @@ the origin or a tiny late overlap keeps its digits.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ._compile import specialised
+from .contact_table import ContactTable, contact_table
 from .distributions import draw, is_recipe
 from .forces import total_potential
 from .initial_state import read_state
@@ -126,14 +128,12 @@ class Model:
         units of length.
     v0 : ndarray, shape (N,)
         Initial velocities, scene units of speed.
-    d0 : ndarray, shape (N-1,)
-        Initial overlaps of the contacts (negative = open gap), scene units of length.
-    k, n : ndarray, shape (N-1,)
-        Force coefficient (force / length^(n-1), scene units) and potential
-        exponent (dimensionless) of each contact: force k*delta^(n-1).
-    walls : ndarray, shape (6,)
-        (d0, k, n) of the left wall contact then the right one (zeros if absent),
-        scene units.
+    contacts : ContactTable
+        Contacts 0..N, the walls as contacts 0 and N (:mod:`granular_chain.contact_table`):
+        initial overlap, force coefficient, exponent and dashpot coefficient of
+        each, and the walls' motion. ``d0``, ``k``, ``n``, ``damping`` (the
+        neighbour contacts' rows, shape (N-1,)), ``walls``, ``wall_damping`` and
+        ``wall_motion`` are read from it.
     eta, eta_static, gamma : ndarray, shape (N,)
         Kinetic friction force, static threshold (>= eta), both force, and
         viscous coefficient (force / speed), scene units.
@@ -145,18 +145,9 @@ class Model:
         The scene's name (file stems, titles).
     extras : dict
         Free-form data attached to the Model (empty by default; not read by the engine).
-    damping : ndarray, shape (N-1,)
-        Dashpot coefficient of each contact: c (force/speed) or A (time) by
-        ``features.damping`` (zeros when undamped).
-    wall_damping : ndarray, shape (2,)
-        Dashpot coefficient of the left and right wall contacts, units as
-        ``damping``.
     body_force : ndarray, shape (N,)
         Force on each granule along +x (gravity m_i g direction, or given),
         scene units of force.
-    wall_motion : ndarray, shape (2, 3)
-        (kind, p1, p2) of the left and right wall
-        (:mod:`granular_chain.laws.wall_motion`; zeros: fixed), scene units.
     """
 
     mass: np.ndarray
@@ -164,10 +155,7 @@ class Model:
     radius: np.ndarray
     x0: np.ndarray
     v0: np.ndarray
-    d0: np.ndarray
-    k: np.ndarray
-    n: np.ndarray
-    walls: np.ndarray
+    contacts: ContactTable
     eta: np.ndarray
     eta_static: np.ndarray
     gamma: np.ndarray
@@ -175,19 +163,49 @@ class Model:
     units: str = "scaled"
     name: str = "scene"
     extras: dict = field(default_factory=dict)
-    damping: np.ndarray = None
-    wall_damping: np.ndarray = None
     body_force: np.ndarray = None
-    wall_motion: np.ndarray = None
 
     def __post_init__(self):
-        # Absent dissipation, forces and motion are zeros of the right shapes, so a
-        # Model built without them (the two-granule batch, tests) is a complete one.
-        N = self.mass.size
-        for name, shape in (("damping", (max(N - 1, 0),)), ("wall_damping", (2,)),
-                            ("body_force", (N,)), ("wall_motion", (2, 3))):
-            if getattr(self, name) is None:
-                object.__setattr__(self, name, np.zeros(shape))
+        # No body force is zeros of the right shape, so a Model built without one is
+        # a complete one.
+        if self.body_force is None:
+            object.__setattr__(self, "body_force", np.zeros(self.mass.size))
+
+    @property
+    def d0(self) -> np.ndarray:
+        """Initial overlaps of the neighbour contacts, shape (N-1,) (a view of the table)."""
+        return self.contacts.between_granules(self.contacts.d0)
+
+    @property
+    def k(self) -> np.ndarray:
+        """Force coefficients of the neighbour contacts, shape (N-1,) (a view)."""
+        return self.contacts.between_granules(self.contacts.k)
+
+    @property
+    def n(self) -> np.ndarray:
+        """Exponents of the neighbour contacts, shape (N-1,) (a view)."""
+        return self.contacts.between_granules(self.contacts.n)
+
+    @property
+    def damping(self) -> np.ndarray:
+        """Dashpot coefficients of the neighbour contacts, shape (N-1,) (a view)."""
+        return self.contacts.between_granules(self.contacts.damping)
+
+    @property
+    def walls(self) -> np.ndarray:
+        """(d0, k, n) of the left then the right wall contact, shape (6,), zeros where
+        absent (:meth:`ContactTable.wall_triples`)."""
+        return self.contacts.wall_triples()
+
+    @property
+    def wall_damping(self) -> np.ndarray:
+        """Dashpot coefficients of the left and right wall contacts, shape (2,)."""
+        return self.contacts.damping[[0, self.count]]
+
+    @property
+    def wall_motion(self) -> np.ndarray:
+        """(kind, p1, p2) of the left and right wall, shape (2, 3) (zeros: fixed)."""
+        return self.contacts.wall_motion
 
     @property
     def count(self) -> int:
@@ -233,18 +251,11 @@ class Model:
         """
         vmax = float(np.max(np.abs(self.v0))) if self.count else 0.0
         vrel = max(vmax, 1e-300)
-        m = self.mass
-        mu = m[:-1] * m[1:] / (m[:-1] + m[1:])
-        k, n, d0 = self.k, self.n, self.d0
-        w = self.walls
-        if self.features.left_wall:
-            mu, k, n, d0 = (np.append(a, b) for a, b in
-                            ((mu, m[0]), (k, w[1]), (n, w[2]), (d0, w[0])))
-        if self.features.right_wall:
-            mu, k, n, d0 = (np.append(a, b) for a, b in
-                            ((mu, m[-1]), (k, w[4]), (n, w[5]), (d0, w[3])))
-        if mu.size == 0:
+        rows = self.contacts.rows()
+        if rows.size == 0:
             return math.inf
+        t = self.contacts
+        mu, k, n, d0 = t.reduced_mass(self.mass)[rows], t.k[rows], t.n[rows], t.d0[rows]
         linear = n == 2.0
         # Linear contacts: the period 2 pi sqrt(mu/k).
         periods = np.where(linear, 2 * math.pi * np.sqrt(mu / k), np.inf)
@@ -409,10 +420,12 @@ def build_model(scene: Scene) -> Model:
     else:
         law = LAW_POWER
     coulomb, viscous = friction_features(eta, eta_s, gamma)
-    k = np.ascontiguousarray(k, dtype=np.float64)
-    damping_code, damping, wall_damping = _dashpots(scene, mass, k, n_exp, walls)
-    body = _body_force(scene, mass)
     motion = _wall_motion(scene)
+    table = contact_table(d0, k, n_exp, walls, left is not None, right is not None,
+                          wall_motion=motion)
+    damping_code, damping = _dashpots(scene, mass, table)
+    table = dataclasses.replace(table, damping=damping)
+    body = _body_force(scene, mass)
     features = Features(
         law=law,
         coulomb=bool(coulomb),
@@ -425,53 +438,48 @@ def build_model(scene: Scene) -> Model:
         driven=bool(np.any(motion[:, 0] != WALL_FIXED)),
     )
     return Model(
-        mass=mass, inv_mass=1.0 / mass, radius=radius, x0=x0, v0=v0, d0=d0,
-        k=k, n=n_exp, walls=walls,
+        mass=mass, inv_mass=1.0 / mass, radius=radius, x0=x0, v0=v0, contacts=table,
         eta=eta, eta_static=eta_s, gamma=gamma, features=features,
-        units=scene.units, name=scene.name,
-        damping=damping, wall_damping=wall_damping, body_force=body, wall_motion=motion,
+        units=scene.units, name=scene.name, body_force=body,
     )
 
 
-def _dashpots(scene: Scene, mass: np.ndarray, k: np.ndarray, n: np.ndarray, walls: np.ndarray):
-    """(code, per-contact coefficients (N-1,), wall coefficients (2,)) of contacts.damping.
+def _dashpots(scene: Scene, mass: np.ndarray, table: ContactTable):
+    """(code, coefficient of each contact, shape (N+1,)) of contacts.damping.
 
     ``restitution`` with every exponent 2 becomes the linear dashpot whose two-body
     restitution is e (:func:`granular_chain.restitution.choose_damping`); with any
     other exponent, the viscoelastic dashpot whose restitution is e at the impact
     speed ``speed`` (:func:`granular_chain.restitution.solve_damping`; A = c/k at
     n = 2). Each contact uses its reduced mass, a wall the end granule's mass (a
-    wall is an infinite mass).
+    wall is an infinite mass). A coefficient given as such is every row's, absent
+    walls' too (unused there); restitution sets the contacts present.
     """
     spec = scene.contacts.damping
     N = mass.size
     if spec is None:
-        return DAMPING_NONE, np.zeros(max(N - 1, 0)), np.zeros(2)
+        return DAMPING_NONE, np.zeros(N + 1)
     if spec.model != "restitution":
         code = DAMPING_LINEAR if spec.model == "linear" else DAMPING_VISCOELASTIC
-        return code, np.full(max(N - 1, 0), float(spec.coefficient)), np.full(2, float(spec.coefficient))
+        return code, np.full(N + 1, float(spec.coefficient))
     tensile = bool(scene.contacts.tensile)
-    mu = mass[:-1] * mass[1:] / (mass[:-1] + mass[1:])
-    rows = [(float(kk), float(nn), float(m)) for kk, nn, m in zip(k, n, mu)]
-    sides = [(j, side) for j, side in enumerate(("left", "right"))
-             if getattr(scene.walls, side) is not None]
-    ends = {0: float(mass[0]), 1: float(mass[-1])}
-    wall_rows = [(float(walls[3 * j + 1]), float(walls[3 * j + 2]), ends[j]) for j, _ in sides]
-    if all(nn == 2.0 for _, nn, _ in rows + wall_rows):
-        coeff = [choose_damping(spec.value, kk, m, tensile) for kk, _, m in rows + wall_rows]
+    mu = table.reduced_mass(mass)
+    present = table.rows()  # neighbour contacts, then the walls: the order of the fields
+    rows = [(float(table.k[j]), float(table.n[j]), float(mu[j])) for j in present]
+    if all(nn == 2.0 for _, nn, _ in rows):
+        coeff = [choose_damping(spec.value, kk, m, tensile) for kk, _, m in rows]
         code = DAMPING_LINEAR
     else:
         # e(g) is the same function for every contact of one exponent: one root per n
         groups = {nn: scaled_damping(spec.value, nn, tensile)
-                  for nn in sorted({nn for _, nn, _ in rows + wall_rows})}
+                  for nn in sorted({nn for _, nn, _ in rows})}
         coeff = [solve_damping(spec.value, spec.speed, nn, kk, m, tensile) if nn == 2.0
                  else groups[nn] * contact_time_scale(spec.speed, kk, m, nn)
-                 for kk, nn, m in rows + wall_rows]
+                 for kk, nn, m in rows]
         code = DAMPING_VISCOELASTIC
-    wall_c = np.zeros(2)
-    for (j, _), c in zip(sides, coeff[len(rows):]):
-        wall_c[j] = c
-    return code, np.ascontiguousarray(coeff[:len(rows)], dtype=np.float64), wall_c
+    damping = np.zeros(N + 1)
+    damping[present] = coeff
+    return code, damping
 
 
 def _body_force(scene: Scene, mass: np.ndarray) -> np.ndarray:
@@ -502,15 +510,13 @@ def _wall_motion(scene: Scene) -> np.ndarray:
 
 
 def _contacts_with_walls(model: Model):
-    """(reduced mass, k, n, initial overlap, field name) of every contact and wall."""
-    m = model.mass
-    rows = [(m[:-1] * m[1:] / (m[:-1] + m[1:]), model.k, model.n, model.d0, "contacts.stiffness")]
-    w = model.walls
-    if model.features.left_wall:
-        rows.append((m[:1], w[1:2], w[2:3], w[0:1], "walls.left.stiffness"))
-    if model.features.right_wall:
-        rows.append((m[-1:], w[4:5], w[5:6], w[3:4], "walls.right.stiffness"))
-    return rows
+    """(reduced mass, k, n, initial overlap, field name) of the neighbour contacts, then
+    of each wall present, from the contact table."""
+    t, N = model.contacts, model.count
+    mu = t.reduced_mass(model.mass)
+    groups = [(np.arange(1, N), "contacts.stiffness")]
+    groups += [(np.array([j]), t.field_of(j)) for j in (0, N) if t.present[j]]
+    return [(mu[j], t.k[j], t.n[j], t.d0[j], name) for j, name in groups]
 
 
 def scale_problem(model: Model):

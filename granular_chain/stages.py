@@ -123,9 +123,10 @@ def wall_positions(model) -> tuple:
         Left wall at x_0 - r_0 - gap_left; right wall at x_(N-1) + r_(N-1) + gap_right
         (the model stores the initial overlaps, -gap).
     """
-    feat, w, x0, r = model.features, model.walls, model.x0, model.radius
-    left = float(x0[0] - r[0] + w[0]) if feat.left_wall else None
-    right = float(x0[-1] + r[-1] - w[3]) if feat.right_wall else None
+    t, x0, r = model.contacts, model.x0, model.radius
+    has_left, has_right = t.walls
+    left = float(x0[0] - r[0] + t.d0[0]) if has_left else None
+    right = float(x0[-1] + r[-1] - t.d0[-1]) if has_right else None
     return left, right
 
 

@@ -80,10 +80,11 @@ def scaled_parameters(model) -> dict:
         ``gamma_scaled`` (dimensionless), or ``{"note": ...}`` when every
         granule starts at rest.
     """
+    t = model.contacts
     if model.count > 1:
-        k, n = float(model.k[0]), float(model.n[0])
+        k, n = float(t.k[1]), float(t.n[1])
     else:
-        k, n = float(model.walls[1] or 1.0), float(model.walls[2] or 2.0)
+        k, n = float(t.k[0] or 1.0), float(t.n[0] or 2.0)
     m = float(model.mass[0])
     v0 = float(np.max(np.abs(model.v0)))
     if v0 == 0.0:
@@ -145,18 +146,10 @@ def internal_scales(model) -> Optional[tuple[float, float, float]]:
         ``(M, A, B)``: mass, length and time scales in scene units, or None.
     """
     M = float(model.mass[0])
-    present_k = [float(k) for k in model.k]
-    present_n = [float(n) for n in model.n]
-    w = model.walls
-    if model.features.left_wall:
-        present_k.append(float(w[1]))
-        present_n.append(float(w[2]))
-    if model.features.right_wall:
-        present_k.append(float(w[4]))
-        present_n.append(float(w[5]))
-    if not present_k:
+    rows = model.contacts.rows()  # the first neighbour contact, else a wall
+    if rows.size == 0:
         return None
-    K0, n0 = present_k[0], present_n[0]
+    K0, n0 = float(model.contacts.k[rows[0]]), float(model.contacts.n[rows[0]])
     V = speed_scale(model)
     if V == 0.0:
         return None
@@ -199,21 +192,29 @@ def scaled_model(model, M: float, A: float, B: float):
     Model
         A copy of ``model`` with every dimensional field divided by its scale.
     """
-    w = model.walls.copy()
-    w[0] /= A
-    w[3] /= A
-    w[1] = w[1] * A ** (w[2] - 2.0) * B * B / M
-    w[4] = w[4] * A ** (w[5] - 2.0) * B * B / M
     inv_F = (B / M) * (B / A)
     # A linear dashpot c is a mass/time like gamma; a viscoelastic A is a time.
     dashpot = (B / M) if model.features.damping == DAMPING_LINEAR else (1.0 / B)
     return dataclasses.replace(
         model, mass=model.mass / M, inv_mass=model.inv_mass * M, radius=model.radius / A,
-        x0=model.x0 / A, v0=model.v0 * (B / A), d0=model.d0 / A,
-        k=model.k * A ** (model.n - 2.0) * (B * B / M), walls=w, eta=model.eta * inv_F,
-        eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M),
-        damping=model.damping * dashpot, wall_damping=model.wall_damping * dashpot,
-        body_force=model.body_force * inv_F, wall_motion=scaled_wall_motion(model.wall_motion, A, B))
+        x0=model.x0 / A, v0=model.v0 * (B / A), contacts=_scaled_contacts(model, M, A, B, dashpot),
+        eta=model.eta * inv_F, eta_static=model.eta_static * inv_F, gamma=model.gamma * (B / M),
+        body_force=model.body_force * inv_F)
+
+
+def _scaled_contacts(model, M: float, A: float, B: float, dashpot: float):
+    """The contact table in units of mass M, length A and time B (``dashpot``: the
+    factor of a dashpot coefficient). The walls' coefficients are formed as
+    ``k A^(n-2) B B / M`` one factor at a time, the neighbour contacts' as
+    ``k A^(n-2) (B B / M)``: two roundings that have always been so, kept so that
+    scaled runs keep their bits."""
+    t, N = model.contacts, model.count
+    k = np.empty(N + 1)
+    k[1:N] = t.between_granules(t.k) * A ** (t.between_granules(t.n) - 2.0) * (B * B / M)
+    for j in (0, N):
+        k[j] = t.k[j] * A ** (t.n[j] - 2.0) * B * B / M
+    return dataclasses.replace(t, d0=t.d0 / A, k=k, damping=t.damping * dashpot,
+                               wall_motion=scaled_wall_motion(t.wall_motion, A, B))
 
 
 def scaled_wall_motion(motion: np.ndarray, A: float, B: float) -> np.ndarray:

@@ -18,7 +18,7 @@ STAGES = [
      "plotting", "progress", "distributions", "initial_state", "checkpoint", "conventions", "laws",
      "units", "rundir"},
     {"scene", "forces"},                          # the scene; the neighbour loop of the laws
-    {"model", "restitution"},                     # scene -> arrays and constants
+    {"model", "contact_table", "restitution"},    # scene -> arrays and constants
     {"result", "dataset", "frames", "ledger"},    # what a run gives, frame by frame
     {"steppers", "stages", "budget", "readback", "diagnostics", "writers"},
     {"simulate"},                                 # scene -> Result, through a stepper

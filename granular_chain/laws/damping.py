@@ -147,11 +147,10 @@ def dashpot_rate(model) -> float:
     float
         Rate in 1/time, scene units (0 without dashpots).
     """
-    feat, m = model.features, model.mass
-    mu = np.concatenate((m[:-1] * m[1:] / (m[:-1] + m[1:]), m[:1], m[-1:]))
-    c = np.concatenate((model.damping, model.wall_damping))
+    feat = model.features
+    c = model.contacts.damping
     if feat.damping == DAMPING_LINEAR and c.size:
-        return float(np.max(c / mu[: c.size]))
+        return float(np.max(c / model.contacts.reduced_mass(model.mass)))
     if feat.damping == DAMPING_VISCOELASTIC and c.size:
         T = model.shortest_period()
         return float(np.max(c)) * (2 * math.pi / T) ** 2 if math.isfinite(T) else 0.0

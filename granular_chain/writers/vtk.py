@@ -101,14 +101,9 @@ def wall_contacts(model) -> tuple:
     (WallContact or None, WallContact or None)
         Left and right wall.
     """
-    walls = model.walls
-    left = right = None
-    if model.features.left_wall:
-        left = WallContact(float(walls[0]), float(walls[1]), float(walls[2]),
-                           float(model.x0[0]))
-    if model.features.right_wall:
-        right = WallContact(float(walls[3]), float(walls[4]), float(walls[5]),
-                            float(model.x0[-1]))
+    t = model.contacts
+    left, right = (WallContact(float(t.d0[j]), float(t.k[j]), float(t.n[j]), float(model.x0[end]))
+                   if t.present[j] else None for j, end in ((0, 0), (model.count, -1)))
     return left, right
 
 
@@ -174,11 +169,9 @@ def dissipation_of(model) -> Optional[Dissipation]:
     feat = model.features
     if feat.damping == DAMPING_NONE and not feat.driven:
         return None
-    wall = np.asarray(model.wall_damping, dtype=np.float64)
-    coefficient = np.concatenate(([wall[0]], np.asarray(model.damping, dtype=np.float64),
-                                  [wall[1]]))
-    return Dissipation(int(feat.damping), int(feat.tensile), coefficient,
-                       np.asarray(model.wall_motion, dtype=np.float64).reshape(2, 3))
+    t = model.contacts
+    return Dissipation(int(feat.damping), int(feat.tensile), t.damping.copy(),
+                       t.wall_motion.copy())
 
 
 @numba.njit(cache=True)

@@ -81,12 +81,7 @@ def check_exponents(model: Model) -> None:
     SimulationError
         When an exponent is below MIN_EXPONENT or above MAX_EXPONENT.
     """
-    n = [float(x) for x in model.n]
-    w = model.walls
-    if model.features.left_wall:
-        n.append(float(w[2]))
-    if model.features.right_wall:
-        n.append(float(w[5]))
+    n = [float(x) for x in model.contacts.n[model.contacts.rows()]]
     high = [x for x in n if x > MAX_EXPONENT]
     if high:
         raise SimulationError(

@@ -159,24 +159,13 @@ def linear_step_cap(model):
 
 
 def _contacts(model: Model):
-    """present, overlap, stiffness, exponent of the kernel's contacts 0..N."""
-    N = model.count
-    present = np.zeros(N + 1, dtype=np.int8)
-    overlap = np.zeros(N + 1)
-    stiffness = np.ones(N + 1)
-    exponent = np.full(N + 1, 2.0)
-    present[1:N] = 1
-    overlap[1:N] = model.d0
-    stiffness[1:N] = model.k
-    exponent[1:N] = model.n
-    w = model.walls
-    if model.features.left_wall:
-        present[0] = 1
-        overlap[0], stiffness[0], exponent[0] = w[0], w[1], w[2]
-    if model.features.right_wall:
-        present[N] = 1
-        overlap[N], stiffness[N], exponent[N] = w[3], w[4], w[5]
-    return present, overlap, stiffness, exponent
+    """present, overlap, stiffness, exponent of the kernel's contacts 0..N: the contact
+    table's, with a unit linear law in the rows of absent walls (never read there, but
+    finite in every formula the kernel forms)."""
+    t = model.contacts
+    absent = t.present == 0
+    return (t.present.copy(), t.d0.copy(), np.where(absent, 1.0, t.k),
+            np.where(absent, 2.0, t.n))
 
 
 def dissipative(model: Model) -> int:
@@ -218,15 +207,12 @@ def dissipative_arg(dissip: int):
 
 def _dissipation_arrays(model: Model):
     """damping (N + 1,), dashpot (2,), body (N,), wall_motion (2, 3) of ChainArrays."""
-    N = model.count
     feat = model.features
-    damping = np.zeros(N + 1)
-    if feat.damping != DAMPING_NONE:
-        damping[1:N] = model.damping
-        damping[0], damping[N] = model.wall_damping[0], model.wall_damping[1]
+    damping = (model.contacts.damping.copy() if feat.damping != DAMPING_NONE
+               else np.zeros(model.count + 1))
     dashpot = np.array([int(feat.damping), int(bool(feat.tensile))], dtype=np.int64)
     return (damping, dashpot, np.ascontiguousarray(model.body_force, dtype=np.float64),
-            np.ascontiguousarray(model.wall_motion, dtype=np.float64))
+            model.contacts.wall_motion.copy())
 
 
 def _overlap_limits(model: Model) -> np.ndarray:

@@ -46,10 +46,6 @@ def is_forced(model: Model) -> bool:
     return not model.features.elastic_and_fixed
 
 
-def _with_walls(model: Model, chain_values, left, right) -> np.ndarray:
-    return np.ascontiguousarray(np.concatenate(([left], chain_values, [right])), dtype=np.float64)
-
-
 def forced_records(model: Model, state, stop_mode: int):
     """(ForcedFeatures, Forcing, ForcedState) of a model, the contact state set for
     (state.u, state.v) at t = 0 and state.f the net force (compiles the kernel's
@@ -70,15 +66,13 @@ def forced_records(model: Model, state, stop_mode: int):
         ``(ForcedFeatures, Forcing, ForcedState)`` (:mod:`.forced`); arrays of
         the contacts with the walls are shape (N+1,), left wall first.
     """
-    feat, N, w = model.features, model.count, model.walls
+    feat, N, t = model.features, model.count, model.contacts
     features = ForcedFeatures(law=int(feat.law), coulomb=int(feat.coulomb),
                               viscous=int(feat.viscous), damping=int(feat.damping))
     forcing = Forcing(
-        d0=_with_walls(model, model.d0, w[0], w[3]), k=_with_walls(model, model.k, w[1], w[4]),
-        n=_with_walls(model, model.n, w[2], w[5]),
-        coefficient=_with_walls(model, model.damping, *model.wall_damping),
+        d0=t.d0.copy(), k=t.k.copy(), n=t.n.copy(), coefficient=t.damping.copy(),
         body=np.ascontiguousarray(model.body_force, dtype=np.float64),
-        motion=np.ascontiguousarray(model.wall_motion, dtype=np.float64),
+        motion=t.wall_motion.copy(),
         ends=np.array([0 if feat.left_wall else 1, N if feat.right_wall else N - 1],
                       dtype=np.int64),
         tensile=int(feat.tensile), stop_mode=int(stop_mode))

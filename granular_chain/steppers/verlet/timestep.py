@@ -85,12 +85,8 @@ def smallest_exponent(model: Model) -> float:
     float
         Dimensionless.
     """
-    n = [float(x) for x in model.n]
-    if model.features.left_wall:
-        n.append(float(model.walls[2]))
-    if model.features.right_wall:
-        n.append(float(model.walls[5]))
-    return min(n, default=math.inf)
+    t = model.contacts
+    return min((float(x) for x in t.n[t.rows()]), default=math.inf)
 
 
 def check_dt(model: Model, dt: float) -> None:
