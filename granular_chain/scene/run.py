@@ -145,12 +145,14 @@ class _RunCommon(_Strict):
         return self
 
 
+_STEPPER = ("Time stepper: 'verlet' (fixed step, the default) or 'event' (exact "
+            "event-driven motion); each takes its own options besides the common ones.")
+
+
 class RunVerlet(_RunCommon):
     """``run`` with ``stepper: verlet`` (the default): velocity Verlet at a fixed step."""
 
-    stepper: Literal["verlet"] = Field("verlet", description="Time stepper: 'verlet' "
-                                       "(fixed step, the default) or 'event' (exact "
-                                       "event-driven motion).")
+    stepper: Literal["verlet"] = Field("verlet", description=_STEPPER)
     dt: Optional[Positive] = Field(
         None, description="Verlet time step; default 1/200 of the shortest contact period.")
     check_dt: Bool = Field(
@@ -168,9 +170,7 @@ class RunVerlet(_RunCommon):
 class RunEvent(_RunCommon):
     """``run`` with ``stepper: event``: the exact event-driven stepper."""
 
-    stepper: Literal["event"] = Field("event", description="Time stepper: 'verlet' "
-                                      "(fixed step, the default) or 'event' (exact "
-                                      "event-driven motion).")
+    stepper: Literal["event"] = Field("event", description=_STEPPER)
     rtol: Positive = Field(1e-12, description="Relative tolerance (event stepper, n != 2).")
     atol: Positive = Field(1e-14, description="Absolute tolerance (event stepper, n != 2).")
     max_events: Annotated[int, Int] = Field(1_000_000, ge=1, description="Event stepper: most events.")
