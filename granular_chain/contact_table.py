@@ -68,7 +68,7 @@ class ContactTable:
         return self.present.size - 1
 
     @property
-    def walls(self) -> tuple[bool, bool]:
+    def has_walls(self) -> tuple[bool, bool]:
         """Whether the left and the right wall are present."""
         return bool(self.present[LEFT_WALL]), bool(self.present[self.count])
 
@@ -150,8 +150,10 @@ class ContactTable:
 
 
 def contact_table(d0, k, n, walls: np.ndarray, left: bool, right: bool,
-                  damping=None, wall_damping=None, wall_motion=None) -> ContactTable:
-    """The table of a chain from its neighbour contacts and its walls.
+                  wall_motion=None) -> ContactTable:
+    """The table of a chain from its neighbour contacts and its walls, undamped (the
+    Model's builder sets ``damping``, solved from these rows, with
+    ``dataclasses.replace``).
 
     Parameters
     ----------
@@ -162,10 +164,6 @@ def contact_table(d0, k, n, walls: np.ndarray, left: bool, right: bool,
         Shape (6,): (d0, k, n) of the left then the right wall (zeros if absent).
     left, right : bool
         Walls present.
-    damping : numpy.ndarray, optional
-        Shape (N-1,): dashpot coefficients of the neighbour contacts (zeros).
-    wall_damping : numpy.ndarray, optional
-        Shape (2,): those of the left and right wall (zeros).
     wall_motion : numpy.ndarray, optional
         Shape (2, 3): (kind, p1, p2) of the walls (zeros: fixed).
 
@@ -178,14 +176,11 @@ def contact_table(d0, k, n, walls: np.ndarray, left: bool, right: bool,
     present[1:N] = 1
     present[0], present[N] = int(left), int(right)
     columns = []
-    for inner, wall in ((d0, walls[0::3]), (k, walls[1::3]), (n, walls[2::3]),
-                        (damping, wall_damping)):
+    for inner, wall in ((d0, walls[0::3]), (k, walls[1::3]), (n, walls[2::3])):
         col = np.zeros(N + 1)
-        if inner is not None:
-            col[1:N] = inner
-        if wall is not None:
-            col[0], col[N] = wall[0], wall[1]
+        col[1:N] = inner
+        col[0], col[N] = wall[0], wall[1]
         columns.append(col)
     motion = np.zeros((2, 3)) if wall_motion is None else np.ascontiguousarray(
         wall_motion, dtype=np.float64).reshape(2, 3)
-    return ContactTable(present, *columns, wall_motion=motion)
+    return ContactTable(present, *columns, damping=np.zeros(N + 1), wall_motion=motion)

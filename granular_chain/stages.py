@@ -124,7 +124,7 @@ def wall_positions(model) -> tuple:
         (the model stores the initial overlaps, -gap).
     """
     t, x0, r = model.contacts, model.x0, model.radius
-    has_left, has_right = t.walls
+    has_left, has_right = t.has_walls
     left = float(x0[0] - r[0] + t.d0[0]) if has_left else None
     right = float(x0[-1] + r[-1] - t.d0[-1]) if has_right else None
     return left, right

@@ -27,7 +27,7 @@ def test_walls_are_contacts_0_and_n(sides):
     model = _model({s: WALLS[s] for s in sides})
     t, N = model.contacts, model.count
     assert t.present.tolist() == [int("left" in sides), 1, 1, 1, int("right" in sides)]
-    assert t.walls == ("left" in sides, "right" in sides)
+    assert t.has_walls == ("left" in sides, "right" in sides)
     assert t.rows().tolist() == [1, 2, 3] + [j for j, s in ((0, "left"), (N, "right")) if s in sides]
     assert t.k[1:N].tolist() == [1.0, 2.0, 4.0] and t.n[1:N].tolist() == [2.5] * 3
     assert t.d0[1:N].tolist() == [-0.05] * 3
