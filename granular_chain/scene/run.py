@@ -34,6 +34,11 @@ STEPPER_OPTIONS = {
 }
 
 
+def _run_options(stepper: str) -> list[str]:
+    """The fields of ``run`` that only ``stepper`` reads (:data:`STEPPER_OPTIONS`)."""
+    return [p.split(".")[1] for p in STEPPER_OPTIONS[stepper] if p.startswith("run.")]
+
+
 #: Granule velocities given by index: {index: value}.
 SparseVelocity = dict[Annotated[int, BeforeValidator(_index_key)], Finite]
 
@@ -113,8 +118,7 @@ class _RunCommon(_Strict):
             return data
         mine = cls.model_fields["stepper"].default
         other, = (s for s in STEPPER_OPTIONS if s != mine)
-        foreign = [p.split(".")[1] for p in STEPPER_OPTIONS[other]
-                   if p.startswith("run.") and p.split(".")[1] in data]
+        foreign = [name for name in _run_options(other) if name in data]
         stored = (info.context or {}).get("stored")
         given = [name for name in foreign if data[name] is not None and not stored]
         if given:
@@ -195,8 +199,7 @@ def own_stepper_options(scene: dict) -> dict:
     if not isinstance(run, dict):
         return scene
     mine = run.get("stepper", "verlet")
-    foreign = {p.split(".")[1] for owner, paths in STEPPER_OPTIONS.items() if owner != mine
-               for p in paths if p.startswith("run.")}
+    foreign = {name for owner in STEPPER_OPTIONS if owner != mine for name in _run_options(owner)}
     if not foreign & set(run):
         return scene
     return {**scene, "run": {k: v for k, v in run.items() if k not in foreign}}

@@ -10,7 +10,7 @@ import numba
 import numpy as np
 
 from ..._compile import specialised
-from ...laws.damping import DAMPING_NONE, DAMPING_VISCOELASTIC
+from ...laws.damping import DAMPING_VISCOELASTIC
 from ...model import LAW_LINEAR, Model
 from .kernel import run_events
 from .modes import initial_friction_modes
@@ -208,8 +208,7 @@ def dissipative_arg(dissip: int):
 def _dissipation_arrays(model: Model):
     """damping (N + 1,), dashpot (2,), body (N,), wall_motion (2, 3) of ChainArrays."""
     feat = model.features
-    damping = (model.contacts.damping.copy() if feat.damping != DAMPING_NONE
-               else np.zeros(model.count + 1))
+    damping = model.contacts.damping.copy()  # (zeros without dashpots)
     dashpot = np.array([int(feat.damping), int(bool(feat.tensile))], dtype=np.int64)
     return (damping, dashpot, np.ascontiguousarray(model.body_force, dtype=np.float64),
             model.contacts.wall_motion.copy())
