@@ -76,7 +76,7 @@ def use_scan(run: VerletRun, module) -> None:
     """Make ``run.scan`` call ``module.scan_frame`` (compiled for this run's records)."""
     x = run._v2.copy()
     run._scanner = specialised(module.scan_frame, (
-        run._scan_codes, run.chain, run.model.walls, run.u, run.vs, run.f, run.model.x0,
+        run._scan_codes, run.chain, run.chain.d0, run.u, run.vs, run.f, run.model.x0,
         module.FrameArrays(x, x, x, run._v2), 1), (0,))
 
 

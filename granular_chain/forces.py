@@ -6,11 +6,15 @@ once; the contact law and the wall branches are compile-time constants of the
 caller's specialisation, so a scene without walls compiles no wall code and
 n = 5/2 compiles ``d*sqrt(d)``.
 
-Overlaps are formed from displacements (see :mod:`granular_chain.model`)::
+Every function here reads the contacts as the columns ``d0, k, n`` of the
+contact table (:class:`granular_chain.contact_table.ContactTable`), shape
+(N+1,): row 0 the left wall, row j (1 <= j <= N-1) the contact between
+granules j-1 and j, row N the right wall. Overlaps are formed from
+displacements (see :mod:`granular_chain.model`)::
 
-    delta_i = d0_i + u_i - u_(i+1)          contact i, between i and i+1
-    delta_L = d0_L - u_0                    left wall
-    delta_R = d0_R + u_(N-1)                right wall
+    delta_j = d0_j + u_(j-1) - u_j          contact j, between j-1 and j
+    delta_L = d0_0 - u_0                    left wall (row 0)
+    delta_R = d0_N + u_(N-1)                right wall (row N)
 """
 
 import numba
@@ -27,40 +31,45 @@ def contact_overlap(d0, u_left, u_right):
 
 @numba.njit(inline="always", cache=True)
 def contact_forces(law, u, d0, k, n, c):
-    """Fill ``c`` (N-1,) with the compressive force of every contact (>= 0).
+    """Fill ``c`` (N-1,) with the compressive force of every contact between granules
+    (>= 0; c[i] is table row i+1, between granules i and i+1).
 
     A loop with no loop-carried value: it vectorises.
     """
     for i in range(u.size - 1):
-        c[i] = contact_force(law, contact_overlap(d0[i], u[i], u[i + 1]), k[i], n[i])
+        c[i] = contact_force(law, contact_overlap(d0[i + 1], u[i], u[i + 1]), k[i + 1],
+                             n[i + 1])
 
 
 @numba.njit(inline="always", cache=True)
-def left_wall_overlap(walls, u_first):
-    """delta_L = d0_L - u_0 of the left wall's contact (``walls`` as in :func:`spring_forces`)."""
-    return walls[0] - u_first
+def left_wall_overlap(d0_left, u_first):
+    """delta_L = d0_L - u_0 of the left wall's contact (d0_L: table row 0's d0)."""
+    return d0_left - u_first
 
 
 @numba.njit(inline="always", cache=True)
-def right_wall_overlap(walls, u_last):
-    """delta_R = d0_R + u_(N-1) of the right wall's contact."""
-    return walls[3] + u_last
+def right_wall_overlap(d0_right, u_last):
+    """delta_R = d0_R + u_(N-1) of the right wall's contact (d0_R: table row N's d0)."""
+    return d0_right + u_last
 
 
 @numba.njit(inline="always", cache=True)
-def left_wall_force(law, walls, u_first):
-    """Force of the left wall on granule 0 (to the right, >= 0), granule 0 displaced by u_first."""
-    return contact_force(law, left_wall_overlap(walls, u_first), walls[1], walls[2])
+def left_wall_force(law, d0, k, n, u_first):
+    """Force of the left wall (table row 0) on granule 0 (to the right, >= 0), granule 0
+    displaced by u_first; ``d0, k, n`` the table's columns (N+1,)."""
+    return contact_force(law, left_wall_overlap(d0[0], u_first), k[0], n[0])
 
 
 @numba.njit(inline="always", cache=True)
-def right_wall_force(law, walls, u_last):
-    """Force of the right wall on granule N-1 (to the left, >= 0), displaced by u_last."""
-    return contact_force(law, right_wall_overlap(walls, u_last), walls[4], walls[5])
+def right_wall_force(law, d0, k, n, u_last):
+    """Force of the right wall (table row N) on granule N-1 (to the left, >= 0),
+    displaced by u_last; ``d0, k, n`` the table's columns (N+1,)."""
+    N = d0.size - 1
+    return contact_force(law, right_wall_overlap(d0[N], u_last), k[N], n[N])
 
 
 @numba.njit(inline="always", cache=True)
-def wall_forces(law, left_wall, right_wall, u, walls):
+def wall_forces(law, left_wall, right_wall, u, d0, k, n):
     """Forces of the walls on granule 0 (to the right) and granule N-1 (to the left, >= 0).
 
     Parameters
@@ -69,8 +78,8 @@ def wall_forces(law, left_wall, right_wall, u, walls):
         Compile-time feature codes (contact law; 1 when that wall is present).
     u : numpy.ndarray
         Shape (N,): displacements from the initial positions, scene units of length.
-    walls : numpy.ndarray
-        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+    d0, k, n : numpy.ndarray
+        Shape (N+1,) each: the contact table's columns (rows 0 and N the walls).
 
     Returns
     -------
@@ -81,14 +90,14 @@ def wall_forces(law, left_wall, right_wall, u, walls):
     fl = 0.0
     fr = 0.0
     if left_wall:
-        fl = left_wall_force(law, walls, u[0])
+        fl = left_wall_force(law, d0, k, n, u[0])
     if right_wall:
-        fr = right_wall_force(law, walls, u[u.size - 1])
+        fr = right_wall_force(law, d0, k, n, u[u.size - 1])
     return fl, fr
 
 
 @numba.njit(inline="always", cache=True)
-def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
+def spring_forces(law, left_wall, right_wall, u, d0, k, n, c, f):
     """Fill contact forces ``c`` (N-1,) and net spring forces ``f`` (N,).
 
     Parameters
@@ -97,11 +106,10 @@ def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
         Compile-time feature codes.
     u : ndarray, shape (N,)
         Displacements from the initial positions, scene units of length.
-    d0, k, n : ndarray, shape (N-1,)
-        Initial overlaps (length), force coefficients (force / length^(n-1)),
-        exponents (dimensionless) of the contacts, scene units.
-    walls : ndarray, shape (6,)
-        (d0, k, n) of the left then right wall contact, scene units.
+    d0, k, n : numpy.ndarray
+        Shape (N+1,) each: initial overlaps (length), force coefficients
+        (force / length^(n-1)) and exponents (dimensionless) of the contacts, the
+        contact table's columns (rows 0 and N the walls), scene units.
     c : ndarray, shape (N-1,)
         Output: compressive force of each contact (>= 0), scene units of force.
     f : ndarray, shape (N,)
@@ -110,7 +118,7 @@ def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
     """
     N = u.size
     contact_forces(law, u, d0, k, n, c)
-    fl, fr = wall_forces(law, left_wall, right_wall, u, walls)
+    fl, fr = wall_forces(law, left_wall, right_wall, u, d0, k, n)
     if N > 1:
         f[0] = fl - c[0]
         for i in range(1, N - 1):
@@ -121,7 +129,7 @@ def spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
 
 
 @numba.njit(inline="always", cache=True)
-def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
+def potential_energy(law, left_wall, right_wall, u, d0, k, n):
     """Total elastic energy stored in the contacts and walls (sum of V(delta)).
 
     Parameters
@@ -131,10 +139,9 @@ def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
     u : numpy.ndarray
         Shape (N,): displacements from the initial positions, scene units of length.
     d0, k, n : numpy.ndarray
-        Shape (N-1,) each: initial overlaps (length), force coefficients
-        (force / length^(n-1)) and exponents (dimensionless) of the contacts, scene units.
-    walls : numpy.ndarray
-        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+        Shape (N+1,) each: initial overlaps (length), force coefficients
+        (force / length^(n-1)) and exponents (dimensionless) of the contacts, the
+        contact table's columns (rows 0 and N the walls), scene units.
 
     Returns
     -------
@@ -144,18 +151,18 @@ def potential_energy(law, left_wall, right_wall, u, d0, k, n, walls):
     N = u.size
     e = 0.0
     for i in range(N - 1):
-        d = contact_overlap(d0[i], u[i], u[i + 1])
+        d = contact_overlap(d0[i + 1], u[i], u[i + 1])
         if d > 0.0:  # an open contact stores nothing (adding its +0.0 would change no bit)
-            e += contact_energy(law, d, k[i], n[i])
+            e += contact_energy(law, d, k[i + 1], n[i + 1])
     if left_wall:
-        e += contact_energy(law, left_wall_overlap(walls, u[0]), walls[1], walls[2])
+        e += contact_energy(law, left_wall_overlap(d0[0], u[0]), k[0], n[0])
     if right_wall:
-        e += contact_energy(law, right_wall_overlap(walls, u[N - 1]), walls[4], walls[5])
+        e += contact_energy(law, right_wall_overlap(d0[N], u[N - 1]), k[N], n[N])
     return e
 
 
 @numba.njit(cache=True)
-def total_potential(law, left_wall, right_wall, u, d0, k, n, walls):
+def total_potential(law, left_wall, right_wall, u, d0, k, n):
     """Compiled entry point for :func:`potential_energy` (called at output frames).
 
     Parameters
@@ -165,10 +172,9 @@ def total_potential(law, left_wall, right_wall, u, d0, k, n, walls):
     u : numpy.ndarray
         Shape (N,): displacements from the initial positions, scene units of length.
     d0, k, n : numpy.ndarray
-        Shape (N-1,) each: initial overlaps (length), force coefficients
-        (force / length^(n-1)) and exponents (dimensionless) of the contacts, scene units.
-    walls : numpy.ndarray
-        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+        Shape (N+1,) each: initial overlaps (length), force coefficients
+        (force / length^(n-1)) and exponents (dimensionless) of the contacts, the
+        contact table's columns (rows 0 and N the walls), scene units.
 
     Returns
     -------
@@ -178,11 +184,11 @@ def total_potential(law, left_wall, right_wall, u, d0, k, n, walls):
     law = numba.literally(law)
     left_wall = numba.literally(left_wall)
     right_wall = numba.literally(right_wall)
-    return potential_energy(law, left_wall, right_wall, u, d0, k, n, walls)
+    return potential_energy(law, left_wall, right_wall, u, d0, k, n)
 
 
 @numba.njit(cache=True)
-def net_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
+def net_forces(law, left_wall, right_wall, u, d0, k, n, c, f):
     """Compiled entry point for :func:`spring_forces` (initial forces, writers).
 
     Parameters
@@ -192,10 +198,9 @@ def net_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
     u : numpy.ndarray
         Shape (N,): displacements from the initial positions, scene units of length.
     d0, k, n : numpy.ndarray
-        Shape (N-1,) each: initial overlaps (length), force coefficients
-        (force / length^(n-1)) and exponents (dimensionless) of the contacts, scene units.
-    walls : numpy.ndarray
-        Shape (6,): (d0, k, n) of the left then right wall contact, scene units.
+        Shape (N+1,) each: initial overlaps (length), force coefficients
+        (force / length^(n-1)) and exponents (dimensionless) of the contacts, the
+        contact table's columns (rows 0 and N the walls), scene units.
     c : numpy.ndarray
         Shape (N-1,), output: compressive force of each contact (>= 0), scene units.
     f : numpy.ndarray
@@ -205,4 +210,4 @@ def net_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f):
     law = numba.literally(law)
     left_wall = numba.literally(left_wall)
     right_wall = numba.literally(right_wall)
-    spring_forces(law, left_wall, right_wall, u, d0, k, n, walls, c, f)
+    spring_forces(law, left_wall, right_wall, u, d0, k, n, c, f)

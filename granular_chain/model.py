@@ -228,8 +228,8 @@ class Model:
             ``(kinetic, elastic)``, scene units of energy.
         """
         feat = self.features
-        args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, self.d0, self.k,
-                self.n, self.walls)
+        t = self.contacts
+        args = (feat.law, int(feat.left_wall), int(feat.right_wall), u, t.d0, t.k, t.n)
         with np.errstate(over="ignore", invalid="ignore"):
             ke = 0.5 * float(np.dot(self.mass, v * v))
         pe = float(specialised(total_potential, args, (0, 1, 2))(*args))

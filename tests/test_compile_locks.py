@@ -16,14 +16,14 @@ CHILD = """
 import numpy as np
 from granular_chain._compile import specialised
 from granular_chain.forces import total_potential
-args = (1, 0, 0, np.zeros(3), np.zeros(2), np.ones(2), np.full(2, 2.0), np.zeros(6))
+args = (1, 0, 0, np.zeros(3), np.zeros(4), np.ones(4), np.full(4, 2.0))
 print("asking", flush=True)
 print(specialised(total_potential, args, (0, 1, 2))(*args))
 """
 
 
 def test_a_second_process_waits_for_the_kernel_being_compiled(tmp_path):
-    args = (1, 0, 0, np.zeros(3), np.zeros(2), np.ones(2), np.full(2, 2.0), np.zeros(6))
+    args = (1, 0, 0, np.zeros(3), np.zeros(4), np.ones(4), np.full(4, 2.0))
     sig = tuple(_literal_type(a) if i < 3 else numba.typeof(a) for i, a in enumerate(args))
     env = {**os.environ, LOCK_DIR_ENV: str(tmp_path)}
     os.environ[LOCK_DIR_ENV], saved = str(tmp_path), os.environ.get(LOCK_DIR_ENV)

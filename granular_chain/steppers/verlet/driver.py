@@ -60,11 +60,11 @@ def _drift_coefficients(model: Model, dt: float):
 
 
 def _net_forces(model: Model, u, c, f, d0=None):
-    """Contact forces c (N-1,) and net forces f (N,) at displacements u; ``d0``
-    replaces the model's initial overlaps when given."""
-    feat = model.features
+    """Contact forces c (N-1,) and net forces f (N,) at displacements u; ``d0`` (N+1,)
+    replaces the contact table's initial overlaps when given."""
+    feat, t = model.features, model.contacts
     args = (feat.law, int(feat.left_wall), int(feat.right_wall), u,
-            model.d0 if d0 is None else d0, model.k, model.n, model.walls, c, f)
+            t.d0 if d0 is None else d0, t.k, t.n, c, f)
     specialised(net_forces, args, (0, 1, 2))(*args)
 
 
@@ -163,7 +163,8 @@ class VerletRun:
             left_wall=int(feat.left_wall), right_wall=int(feat.right_wall),
             stop_mode=self.stop_mode, uniform=_uniform_code(model, feat, E, P1, P2),
             log_events=self.log_events)
-        self.chain = Chain(model.d0, model.k, model.n, model.walls, model.mass, model.inv_mass,
+        table = model.contacts
+        self.chain = Chain(table.d0, table.k, table.n, model.mass, model.inv_mass,
                            model.eta, model.eta_static, *_overlap_caps(model))
         self.timestep = Timestep(dt, E, P1, P2)
         self.state = State(self.u, self.v, self.f, active, self.ledger, self.counts)
@@ -179,9 +180,10 @@ class VerletRun:
                                       self._records(self._control(1)), (0,))
         self._scan_codes = ScanCodes(int(feat.law), int(feat.left_wall), int(feat.right_wall))
         self._v2 = np.empty(N)
+        self._d0_now = table.d0.copy()  # the table's d0 with driven walls where they are
         x = np.empty(N)
         self._scanner = specialised(scan_frame, (
-            self._scan_codes, self.chain, model.walls, self.u, self.vs, self.f, model.x0,
+            self._scan_codes, self.chain, table.d0, self.u, self.vs, self.f, model.x0,
             FrameArrays(x, x, x, self._v2), 1), (0,))
         # A run whose writers have a thread of their own hands each frame of the
         # cadence to it as a copy of the state, and steps on (see _defer). Only when
@@ -196,7 +198,7 @@ class VerletRun:
             self._stash = specialised(stash_state, (self.u, self.vs, self.f, frame_arrays), ())
             self._settle_v2 = np.empty(N)  # (the writers' thread's work array)
             self._settler = specialised(settle_frame, (
-                self._scan_codes, self.chain, model.walls, model.x0, frame_arrays), (0,))
+                self._scan_codes, self.chain, table.d0, model.x0, frame_arrays), (0,))
         ke0, pe0 = model.energies(self.u, self.v)
         self.e0 = ke0 + pe0
         self.steps, self.t_now, self.dt_now = 0, 0.0, dt
@@ -250,7 +252,8 @@ class VerletRun:
             t_now); the frame's arrays are written into those the frame log lends.
         """
         x, v, f = self.log.lend(self.model.count)
-        return Scan(*self._scanner(self._scan_codes, self.chain, walls_at(self.model, self.t_now),
+        return Scan(*self._scanner(self._scan_codes, self.chain,
+                                   walls_at(self.model, self.t_now, self._d0_now),
                                    self.u, self.vs, self.f, self.model.x0,
                                    FrameArrays(x, v, f, self._v2), int(reach)))
 
@@ -673,7 +676,7 @@ class VerletRun:
     def _settle(self, mark: "_Mark", x, v, f) -> Frame:
         """(On the writers' thread.) The frame of a state :meth:`_defer` copied into
         ``x`` (displacements), ``v``, ``f``; raises RunEnds when the run ends there."""
-        first, ke, pe = self._settler(self._scan_codes, self.chain, self.model.walls,
+        first, ke, pe = self._settler(self._scan_codes, self.chain, self.chain.d0,
                                       self.model.x0, FrameArrays(x, v, f, self._settle_v2))
         scan = Scan(first, NO_PROBLEM, -1, 0.0, ke, pe)
         ended = self._nonfinite(scan, mark.t_now) if first >= 0 else \
@@ -811,7 +814,9 @@ def _overlap_caps(model: Model):
     # (laws.contact through net_forces with d0 = lim and u = 0, so delta = lim
     # exactly), not from a second formula.
     at_limit = np.zeros(lim.size)
-    _net_forces(model, np.zeros(model.count), at_limit, np.zeros(model.count), d0=lim)
+    d0 = model.contacts.d0.copy()
+    d0[1:-1] = lim
+    _net_forces(model, np.zeros(model.count), at_limit, np.zeros(model.count), d0=d0)
     return olim, float(np.min(at_limit))
 
 

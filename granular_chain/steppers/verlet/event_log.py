@@ -87,21 +87,23 @@ def log_event(log, fill, step, kind, index):
 
 
 @numba.njit(inline="always", cache=True)
-def walls_closed(features, u, walls):
-    """(left, right): 1 where that wall's contact is closed (delta > 0); 0 without the wall."""
+def walls_closed(features, u, d0):
+    """(left, right): 1 where that wall's contact is closed (delta > 0); 0 without the
+    wall. ``d0``: the contact table's column (N+1,), the walls in rows 0 and N."""
     left = 0
     right = 0
     if features.left_wall:
-        left = 1 if left_wall_overlap(walls, u[0]) > 0.0 else 0
+        left = 1 if left_wall_overlap(d0[0], u[0]) > 0.0 else 0
     if features.right_wall:
-        right = 1 if right_wall_overlap(walls, u[u.size - 1]) > 0.0 else 0
+        right = 1 if right_wall_overlap(d0[u.size], u[u.size - 1]) > 0.0 else 0
     return left, right
 
 
 @numba.njit(inline="always", cache=True)
-def log_walls(features, log, fill, step, u, walls, was):
-    """Log the wall contacts that changed since they were ``was`` = (left, right); the new fill."""
-    left, right = walls_closed(features, u, walls)
+def log_walls(features, log, fill, step, u, d0, was):
+    """Log the wall contacts that changed since they were ``was`` = (left, right); the new
+    fill. ``d0`` as in :func:`walls_closed`."""
+    left, right = walls_closed(features, u, d0)
     if left != was[0]:
         fill = log_event(log, fill, step, CLOSE if left else OPEN, -1)
     if right != was[1]:
@@ -123,10 +125,11 @@ def sweep_contact_log(d0, u, seen, after, log, fill, step):
     the states into ``seen``) and after the step (1: a log entry where a state
     changed); the new fill. Called, not inlined: code around the sweep changes
     how its sums are reassociated (the drag's work would then differ in the last
-    bits from the run without the log)."""
+    bits from the run without the log). ``d0``: the contact table's column (N+1,);
+    contact i, between granules i and i+1, is its row i+1."""
     for i in range(u.size - 1):
         # d0 is 0 on the UNIT chain, where the sweep adds the constant 0.0: the same test
-        now = closed(d0[i], u[i], u[i + 1])
+        now = closed(d0[i + 1], u[i], u[i + 1])
         if not after:
             seen[i] = now
         elif now != seen[i]:

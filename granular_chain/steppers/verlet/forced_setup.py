@@ -128,10 +128,9 @@ def wall_positions(model: Model, t: float) -> tuple[float, float]:
     return tuple(float(wall_displacement(int(k), p1, p2, t)) for k, p1, p2 in model.wall_motion)
 
 
-def walls_at(model: Model, t: float) -> np.ndarray:
-    """The wall contacts' (d0, k, n), shape (6,), with the walls where they are at t:
-    a driven wall's displacement enters its d0 (``model.walls`` itself when no wall
-    is driven).
+def walls_at(model: Model, t: float, out: np.ndarray) -> np.ndarray:
+    """The contact table's d0 column with the walls where they are at t: a driven
+    wall's displacement enters its d0 (the table's own column when no wall is driven).
 
     Parameters
     ----------
@@ -139,20 +138,23 @@ def walls_at(model: Model, t: float) -> np.ndarray:
         The compiled scene, scene units.
     t : float
         Time, scene units of time.
+    out : numpy.ndarray
+        Shape (N+1,): a copy of ``model.contacts.d0``, whose wall rows (0 and N) are
+        written here when a wall is driven (no array is made per frame).
 
     Returns
     -------
     numpy.ndarray
-        Shape (6,): (d0, k, n) of the left, then the right wall contact.
+        Shape (N+1,): initial overlaps of the contacts, rows 0 and N the walls at t,
+        scene units of length.
     """
+    table = model.contacts
     if not model.features.driven:
-        return model.walls
+        return table.d0
     s_left, s_right = wall_positions(model, t)
-    walls = model.walls.copy()
-    walls[0] += s_left  # delta_L = d0_L + s_L - u_0
-    walls[3] -= s_right  # delta_R = d0_R + u_(N-1) - s_R
-    return walls
-
+    out[0] = table.d0[0] + s_left  # delta_L = d0_L + s_L - u_0
+    out[-1] = table.d0[-1] - s_right  # delta_R = d0_R + u_(N-1) - s_R
+    return out
 
 
 def body_work(model: Model, u) -> float:

@@ -96,7 +96,7 @@ class Scan(NamedTuple):
 
 
 @numba.njit(cache=True)
-def scan_frame(codes, chain, walls, u, v, f, x0, out, reach):
+def scan_frame(codes, chain, d0, u, v, f, x0, out, reach):
     """Fill the frame's arrays from the state and check it, in one compiled call.
 
     Parameters
@@ -104,10 +104,11 @@ def scan_frame(codes, chain, walls, u, v, f, x0, out, reach):
     codes : ScanCodes
         Compile-time codes (literal fields).
     chain : granular_chain.steppers.verlet.records.Chain
-        The chain's constants: d0, k, n (N-1,), mass (N,), olim (N+1,) (the
-        overlaps at which centres meet: left wall, contacts, right wall).
-    walls : ndarray, shape (6,)
-        (d0, k, n) of the left, then the right wall contact, with the walls where
+        The chain's constants: k, n (N+1,, the contact table's columns), mass (N,),
+        olim (N+1,) (the overlaps at which centres meet: left wall, contacts, right
+        wall).
+    d0 : ndarray, shape (N+1,)
+        The contact table's initial overlaps with the walls (rows 0 and N) where
         they are now (a driven wall's displacement added to its d0).
     u, v, f : ndarray, shape (N,)
         Displacements, synchronised velocities and net spring forces.
@@ -146,8 +147,8 @@ def scan_frame(codes, chain, walls, u, v, f, x0, out, reach):
     first = _first_nonfinite(u, v) if nonfinite else -1
     problem, index, overlap = NO_PROBLEM, -1, 0.0
     if reach:
-        problem, index, overlap = _passed(left_wall, right_wall, chain, walls, u)
-    kinetic, potential = _energies(law, left_wall, right_wall, chain, walls, u, out.v2)
+        problem, index, overlap = _passed(left_wall, right_wall, chain, d0, u)
+    kinetic, potential = _energies(law, left_wall, right_wall, chain, d0, u, out.v2)
     return first, problem, index, overlap, kinetic, potential
 
 
@@ -174,7 +175,7 @@ def stash_state(u, v, f, out):
 
 
 @numba.njit(nogil=True, cache=True)
-def settle_frame(codes, chain, walls, x0, out):
+def settle_frame(codes, chain, d0, x0, out):
     """Make a frame of a state :func:`stash_state` copied into ``out``: the first
     non-finite granule and the energies, as :func:`scan_frame` finds them, then
     x = x0 + u in place. Without the GIL (it runs on the writers' thread).
@@ -184,9 +185,10 @@ def settle_frame(codes, chain, walls, x0, out):
     codes : ScanCodes
         Compile-time codes (literal fields).
     chain : granular_chain.steppers.verlet.records.Chain
-        The chain's constants (d0, k, n, mass).
-    walls : ndarray, shape (6,)
-        (d0, k, n) of the left, then the right wall contact.
+        The chain's constants (k, n, mass).
+    d0 : ndarray, shape (N+1,)
+        The contact table's initial overlaps, rows 0 and N the walls (fixed: a
+        scene with a driven wall has no writers' thread of this kind).
     x0 : ndarray, shape (N,)
         Initial centre positions.
     out : FrameArrays
@@ -213,7 +215,7 @@ def settle_frame(codes, chain, walls, x0, out):
         out.v2[i] = vi * vi
         nonfinite |= (vbits[i] & _EXPONENT) == _EXPONENT
     first = _first_nonfinite(u, v) if nonfinite else -1
-    kinetic, potential = _energies(law, left_wall, right_wall, chain, walls, u, out.v2)
+    kinetic, potential = _energies(law, left_wall, right_wall, chain, d0, u, out.v2)
     for i in range(u.size):  # (u is out.x: each value read before it is replaced)
         out.x[i] = x0[i] + u[i]
     return first, kinetic, potential
@@ -230,35 +232,37 @@ def _first_nonfinite(u, v):
 
 
 @numba.njit(inline="always", cache=True)
-def _energies(law, left_wall, right_wall, chain, walls, u, v2):
+def _energies(law, left_wall, right_wall, chain, d0, u, v2):
     """(kinetic, potential): 0.5 m . v2 by the BLAS dot product and the ordered sum
-    of the contacts' and walls' elastic energies, as Model.energies makes them."""
+    of the contacts' and walls' elastic energies, as Model.energies makes them
+    (``d0``: the table's column with the walls where they are now)."""
     kinetic = 0.5 * np.dot(chain.mass, v2)
-    potential = potential_energy(law, left_wall, right_wall, u, chain.d0, chain.k, chain.n,
-                                 walls)
+    potential = potential_energy(law, left_wall, right_wall, u, d0, chain.k, chain.n)
     return kinetic, potential
 
 
 @numba.njit(inline="always", cache=True)
-def _passed(left_wall, right_wall, chain, walls, u):
+def _passed(left_wall, right_wall, chain, d0, u):
     """(problem, index, overlap): the first contact whose centres met, else a wall
-    its granule has passed, else (NO_PROBLEM, -1, 0)."""
+    its granule has passed, else (NO_PROBLEM, -1, 0). ``d0``: the table's column
+    with the walls where they are now (contact i, between granules i and i+1, is its
+    row i+1, as olim's)."""
     N = u.size
     olim = chain.olim
     met = False
     for i in range(N - 1):  # whether any has, with no early exit: the loop vectorises
-        met |= contact_overlap(chain.d0[i], u[i], u[i + 1]) >= olim[i + 1]
+        met |= contact_overlap(d0[i + 1], u[i], u[i + 1]) >= olim[i + 1]
     if met:
         for i in range(N - 1):
-            d = contact_overlap(chain.d0[i], u[i], u[i + 1])
+            d = contact_overlap(d0[i + 1], u[i], u[i + 1])
             if d >= olim[i + 1]:
                 return CONTACT_PASSED, i, d
     if left_wall:
-        d = left_wall_overlap(walls, u[0])
+        d = left_wall_overlap(d0[0], u[0])
         if d >= olim[0]:
             return LEFT_WALL_PASSED, 0, d
     if right_wall:
-        d = right_wall_overlap(walls, u[N - 1])
+        d = right_wall_overlap(d0[N], u[N - 1])
         if d >= olim[N]:
             return RIGHT_WALL_PASSED, N - 1, d
     return NO_PROBLEM, -1, 0.0

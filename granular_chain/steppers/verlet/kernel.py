@@ -107,7 +107,7 @@ def uniform_values(uniform, chain, timestep):
     they make exact (x * 1, x + 0: the results are those of UNIFORM)."""
     m0, im0 = chain.mass[0], chain.inv_mass[0]
     E0, P10, P20 = timestep.E[0], timestep.P1[0], timestep.P2[0]
-    d00, k0, n0 = (chain.d0[0], chain.k[0], chain.n[0]) if chain.d0.size else (0.0, 0.0, 0.0)
+    d00, k0, n0 = (chain.d0[1], chain.k[1], chain.n[1]) if chain.d0.size > 2 else (0.0, 0.0, 0.0)
     if uniform == UNIT:
         m0, im0, d00, k0 = 1.0, 1.0, 0.0, 1.0
     return m0, im0, E0, P10, P20, d00, k0, n0
@@ -157,10 +157,11 @@ def store_granule(state, i, u, v, F, stop_mode):
 
 @numba.njit(inline="always", cache=True)
 def sweep_contact_closed(chain, u, j):
-    """1 if contact j is closed, from the displacements (the sweep keeps no state array)."""
+    """1 if contact j (between granules j and j+1: table row j+1) is closed, from the
+    displacements (the sweep keeps no state array)."""
     if u.size < 2:
         return 0
-    return closed(chain.d0[j], u[j], u[j + 1])
+    return closed(chain.d0[j + 1], u[j], u[j + 1])
 
 
 @numba.njit(inline="always", cache=True)
@@ -171,13 +172,13 @@ def overlap_reached(features, chain, u, n_hard):
     N = u.size
     if n_hard > 0:
         for i in range(N - 1):
-            if contact_overlap(chain.d0[i], u[i], u[i + 1]) >= chain.olim[i + 1]:
+            if contact_overlap(chain.d0[i + 1], u[i], u[i + 1]) >= chain.olim[i + 1]:
                 return True
     if features.left_wall:
-        if left_wall_overlap(chain.walls, u[0]) >= chain.olim[0]:
+        if left_wall_overlap(chain.d0[0], u[0]) >= chain.olim[0]:
             return True
     if features.right_wall:
-        if right_wall_overlap(chain.walls, u[N - 1]) >= chain.olim[N]:
+        if right_wall_overlap(chain.d0[N], u[N - 1]) >= chain.olim[N]:
             return True
     return False
 
@@ -212,7 +213,7 @@ def sweep_chunk(features, chain, timestep, state, call, log):
     law, viscous, uniform, stop_mode = features.law, features.viscous, features.uniform, \
         features.stop_mode
     u, v, f, counts = state.u, state.v, state.f, state.counts
-    d0, k, n, walls, m, inv_m = chain.d0, chain.k, chain.n, chain.walls, chain.mass, chain.inv_mass
+    d0, k, n, m, inv_m = chain.d0, chain.k, chain.n, chain.mass, chain.inv_mass
     dt, E, P1, P2 = timestep
     times = (dt, 1.0 / dt, 0.5 * dt)
     last = np.uint64(max(u.size - 1, 0))
@@ -225,7 +226,7 @@ def sweep_chunk(features, chain, timestep, state, call, log):
         if features.log_events:
             if fill > room:
                 return step, LOG_FULL
-            walls_was = walls_closed(features, u, walls)
+            walls_was = walls_closed(features, u, d0)
             fill = sweep_contact_log(d0, u, seen, 0, log, fill, step)
         wv = 0.0
         n_moving = 0
@@ -241,7 +242,7 @@ def sweep_chunk(features, chain, timestep, state, call, log):
         wv += w
         left = 0.0
         if features.left_wall:
-            left = left_wall_force(law, walls, ui)
+            left = left_wall_force(law, d0, k, n, ui)
         for i in range(np.uint64(0), last):
             j = i + ONE
             u_next_was = u[j]
@@ -250,9 +251,9 @@ def sweep_chunk(features, chain, timestep, state, call, log):
                 param(uniform, inv_m, im0, j), param(uniform, E, E0, j),
                 param(uniform, P1, P10, j), param(uniform, P2, P20, j), times)
             wv += w
-            d0i = param(uniform, d0, d00, i)
-            ci = contact_force(law, contact_overlap(d0i, ui, un), param(uniform, k, k0, i),
-                               param(uniform, n, n0, i))
+            d0i = param(uniform, d0, d00, j)  # contact i: table row j = i + 1
+            ci = contact_force(law, contact_overlap(d0i, ui, un), param(uniform, k, k0, j),
+                               param(uniform, n, n0, j))
             n_hard += 1 if ci >= chain.fcap else 0
             was = closed(d0i, u_was, u_next_was)
             now = closed(d0i, ui, un)
@@ -271,7 +272,7 @@ def sweep_chunk(features, chain, timestep, state, call, log):
             dui = dun
         right = 0.0
         if features.right_wall:
-            right = right_wall_force(law, walls, ui)
+            right = right_wall_force(law, d0, k, n, ui)
         F = left - right
         v1, w = sweep_second_half(viscous, vi, F, dui, m[last], inv_m[last], P2[last], times)
         n_moving += store_granule(state, last, ui, v1, F, stop_mode)
@@ -282,7 +283,7 @@ def sweep_chunk(features, chain, timestep, state, call, log):
         counts[OPEN] += (n_change - n_net) >> 1
         if features.log_events:  # read after the sums are stored: their bits stay
             fill = sweep_contact_log(d0, u, seen, 1, log, fill, step + 1)
-            fill = log_walls(features, log, fill, step + 1, u, walls, walls_was)
+            fill = log_walls(features, log, fill, step + 1, u, d0, walls_was)
             log.fill[0] = fill
         if overlap_reached(features, chain, u, n_hard):
             return step + 1, OVERLAP
@@ -357,12 +358,13 @@ def contact_pass(features, chain, state, block, buffer, log, fill, step, tally):
     n_close, n_open, n_hard = tally
     ua = np.uint64(block[0])
     for i in range(np.uint64(max(block[0] - 1, 0)), np.uint64(block[1]) - ONE):
-        ci = contact_force(features.law, contact_overlap(d0[i], u[i], u[i + ONE]), k[i], n[i])
+        j = i + ONE  # contact i: table row i + 1
+        ci = contact_force(features.law, contact_overlap(d0[j], u[i], u[i + ONE]), k[j], n[j])
         buffer[i + TWO - ua] = ci
         n_hard += 1 if ci >= chain.fcap else 0  # an integer reduction: vectorises
         # closed = delta > 0, as in the sweep (not ci > 0, which differs where
         # the force underflows: delta < ~1e-216 for Hertz)
-        now = closed(d0[i], u[i], u[i + ONE])
+        now = closed(d0[j], u[i], u[i + ONE])
         was = active[i]
         n_close += now & (1 - was)
         n_open += was & (1 - now)
@@ -422,7 +424,7 @@ def passes_chunk(features, chain, timestep, state, call, log):
         if features.log_events:
             if fill > room:
                 return step, LOG_FULL
-            walls_was = walls_closed(features, u, chain.walls)
+            walls_was = walls_closed(features, u, chain.d0)
         if features.stop_mode & STOP_ON_SEPARATION:
             watched_was = np.int64(state.active[call.stop_contact])
         kick = h if call.opening and step == 0 else timestep.dt
@@ -434,10 +436,11 @@ def passes_chunk(features, chain, timestep, state, call, log):
             if features.log_events:
                 fill = log_kicks(log, fill, step + 1, (a, b), seen)
             if a == 0:
-                buffer[1] = left_wall_force(features.law, chain.walls, u[0]) \
+                buffer[1] = left_wall_force(features.law, chain.d0, chain.k, chain.n, u[0]) \
                     if features.left_wall else 0.0
             if b == N:
-                buffer[b - a + 1] = right_wall_force(features.law, chain.walls, u[N - 1]) \
+                buffer[b - a + 1] = right_wall_force(features.law, chain.d0, chain.k, chain.n,
+                                                     u[N - 1]) \
                     if features.right_wall else 0.0
             contacts, fill = contact_pass(features, chain, state, (a, b), buffer, log, fill,
                                           step + 1, contacts)
@@ -456,7 +459,7 @@ def passes_chunk(features, chain, timestep, state, call, log):
         counts[CLOSE] += n_close
         counts[OPEN] += n_open
         if features.log_events:
-            fill = log_walls(features, log, fill, step + 1, u, chain.walls, walls_was)
+            fill = log_walls(features, log, fill, step + 1, u, chain.d0, walls_was)
             log.fill[0] = fill
         if overlap_reached(features, chain, u, n_hard):
             return step + 1, OVERLAP

@@ -61,11 +61,12 @@ class Chain(NamedTuple):
 
     Attributes
     ----------
-    d0, k, n : ndarray, shape (N-1,)
+    d0, k, n : ndarray, shape (N+1,)
         Initial overlap (length), force coefficient (force / length^(n-1)) and
-        exponent (dimensionless) of each contact, units of the model.
-    walls : ndarray, shape (6,)
-        (d0, k, n) of the left, then the right wall contact, units of the model.
+        exponent (dimensionless) of each contact: the columns of the contact table
+        (:class:`granular_chain.contact_table.ContactTable`), row 0 the left wall,
+        row j the contact between granules j-1 and j, row N the right wall (zeros
+        where absent), units of the model.
     mass, inv_mass, eta, eta_static : ndarray, shape (N,)
         Mass, 1/mass, kinetic friction force, static friction threshold (force),
         units of the model.
@@ -81,7 +82,6 @@ class Chain(NamedTuple):
     d0: np.ndarray
     k: np.ndarray
     n: np.ndarray
-    walls: np.ndarray
     mass: np.ndarray
     inv_mass: np.ndarray
     eta: np.ndarray
