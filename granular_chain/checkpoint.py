@@ -7,6 +7,16 @@ every ``output.checkpoint_every`` steps, once the writers have the frames so far
 and when a run is interrupted. A run that completes removes it, except a Verlet run that
 reached t_end, which keeps the one taken at its last frame of the cadence before its last
 whole step: a later ``run.t_end`` extends the run from it (:mod:`granular_chain.restart`).
+
+Every checkpoint has the same frame: ``format`` (:data:`CHECKPOINT_FORMAT`), ``stepper``
+("verlet" or "event"), the frame log's part (``log_count``, ``log_max_balance_error``,
+``log_keep``, the first and latest frames ``log_first_<field>``, ``log_last_<field>``:
+:meth:`granular_chain.frames.FrameLog.checkpoint_state`), what ``granular-chain run``
+adds for its writers (``thermo_lines``, ``thermo_last_t``) and ``scene_json``; then the
+stepper's own state (:meth:`granular_chain.steppers.verlet.driver.VerletRun.checkpoint_state`,
+:func:`granular_chain.steppers.events.driver.checkpoint_state`). Checkpoints written
+before this frame (a Verlet one without ``format``, an event one of format 3) are read
+in its terms (:func:`upgrade`).
 """
 
 from __future__ import annotations
@@ -17,9 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["CHECKPOINT", "save_checkpoint", "load_checkpoint", "scene_difference"]
+__all__ = ["CHECKPOINT", "CHECKPOINT_FORMAT", "save_checkpoint", "load_checkpoint",
+           "upgrade", "check_checkpoint", "scene_difference"]
 
 CHECKPOINT = "checkpoint.npz"
+#: The checkpoints' format: 4 since both steppers write the same frame.
+CHECKPOINT_FORMAT = 4
 
 
 def save_checkpoint(folder, state: dict, scene) -> Path:
@@ -63,7 +76,60 @@ def load_checkpoint(folder) -> tuple[dict, dict]:
     with np.load(Path(folder) / CHECKPOINT) as data:
         state = {name: data[name] for name in data.files if name != "scene_json"}
         scene = json.loads(str(data["scene_json"]))
-    return state, scene
+    return upgrade(state), scene
+
+
+def upgrade(state: dict) -> dict:
+    """A checkpoint state in the terms of :data:`CHECKPOINT_FORMAT` (itself when it is).
+
+    The event stepper's format 3 had every key of format 4 but ``stepper``. A Verlet
+    checkpoint written before format 4 has no ``format`` and kept its frame log as
+    ``frames``, ``max_error`` and ``first_<field>``, without the latest frame.
+
+    Parameters
+    ----------
+    state : dict
+        A checkpoint state as stored.
+
+    Returns
+    -------
+    dict
+        The state with ``format``, ``stepper`` and the ``log_*`` keys.
+    """
+    if "stepper" in state:
+        return state
+    state = dict(state)
+    if "format" in state:
+        state["stepper"] = "event"
+    else:
+        state["stepper"] = "verlet"
+        state["log_count"] = state.pop("frames")
+        state["log_max_balance_error"] = state.pop("max_error")
+        for key in [key for key in state if key.startswith("first_")]:
+            state["log_" + key] = state.pop(key)
+    state["format"] = CHECKPOINT_FORMAT
+    return state
+
+
+def check_checkpoint(state: dict, stepper: str) -> None:
+    """Refuse a state that is not a checkpoint of this format from ``stepper``.
+
+    Parameters
+    ----------
+    state : dict
+        A checkpoint state (:func:`upgrade` it first when it was read from a file).
+    stepper : str
+        "verlet" or "event": the stepper that is to continue it.
+
+    Raises
+    ------
+    ValueError
+        Naming what the state is instead.
+    """
+    fmt, made_by = int(state.get("format", -1)), str(state.get("stepper", "?"))
+    if fmt != CHECKPOINT_FORMAT or made_by != stepper:
+        raise ValueError(f"not a checkpoint of the {stepper} stepper of format "
+                         f"{CHECKPOINT_FORMAT} (format {fmt}, stepper {made_by})")
 
 
 def scene_difference(a, b, path: str = "") -> str:

@@ -438,22 +438,54 @@ class FrameLog:
             if flush is not None:
                 flush()
 
-    def resume(self, count: int, max_error: float, first: Frame) -> None:
-        """Continue the log of a run restarted from a checkpoint: ``count`` frames were
-        written before it, ``first`` is the run's first frame.
+    def checkpoint_state(self) -> dict:
+        """The log's part of a checkpoint (the same keys for both steppers;
+        :mod:`granular_chain.checkpoint`).
+
+        Returns
+        -------
+        dict
+            ``log_count`` (frames recorded), ``log_max_balance_error`` (largest relative
+            ledger error over them), ``log_keep``, and the run's first and latest frames
+            as ``log_first_<field>``, ``log_last_<field>`` (fields in :attr:`_FIELDS`;
+            arrays of shape (N,) or numbers, scene units), when a frame was recorded.
+        """
+        state = {"log_count": self.count,
+                 "log_max_balance_error": float(self.max_balance_error),
+                 "log_keep": bool(self.keep)}
+        if self.count:
+            kept = self.kept
+            for which, k in (("first", 0), ("last", -1)):
+                for name in self._FIELDS:
+                    value = kept[name][k]
+                    state[f"log_{which}_{name}"] = np.array(value) if isinstance(
+                        value, np.ndarray) else value
+        return state
+
+    def restore(self, state: dict) -> None:
+        """Continue the log of a run restarted from a checkpoint: its count and largest
+        ledger error, and, for a log that keeps the first and the latest frame only
+        (``keep`` False), those two, which a Result reads. A log that keeps every frame
+        keeps those computed after the resume (the ones before are in the writers'
+        files).
 
         Parameters
         ----------
-        count : int
-            Frames written before the checkpoint.
-        max_error : float
-            Largest relative ledger error over those frames (dimensionless).
-        first : Frame
-            The run's first frame.
+        state : dict
+            A checkpoint state holding :meth:`checkpoint_state`'s keys. A ledger term
+            the checkpoint predates is taken as 0.
         """
-        self.count, self.max_balance_error = int(count), float(max_error)
+        self.count = int(state["log_count"])
+        self.max_balance_error = float(state["log_max_balance_error"])
+        if self.keep or self.count == 0:
+            return
+        which = ("first", "last") if self.count >= 2 and "log_last_t" in state else ("first",)
+        kept = {}
         for name in self._FIELDS:
-            self.kept[name] = [getattr(first, name)]
+            values = [state.get(f"log_{w}_{name}", 0 if name == "stage" else 0.0)
+                      for w in which]
+            kept[name] = [np.asarray(v).item() if np.ndim(v) == 0 else v for v in values]
+        self.kept = kept
 
     def _raise_error(self) -> None:
         if self._error is not None:

@@ -98,7 +98,7 @@ class _Attached:
         model = ready.model
         out, run = scene.output, scene.run
         # a continued run reopens the files at the checkpoint's frame and thermo line
-        frames = int(resume["frames"]) if resume is not None else None
+        frames = int(resume["log_count"]) if resume is not None else None
         lines = int(resume["thermo_lines"]) if resume is not None else None
         self.writers = []
         if out.trajectory:
@@ -131,8 +131,6 @@ class _Attached:
 
         def save(state: dict) -> None:
             state = dict(state)
-            if "frames" not in state:  # the event stepper counts the frames it handed on
-                state["frames"] = state["log_count"]
             state["thermo_lines"] = self.thermo.lines
             state["thermo_last_t"] = float(self.thermo._last_t)
             save_checkpoint(folder, state, scene)

@@ -22,6 +22,7 @@ from typing import Optional
 
 import numpy as np
 
+from ...checkpoint import CHECKPOINT_FORMAT, check_checkpoint
 from ...codes import Pause, Status
 from ...errors import SimulationError
 from ...frames import Frame, FrameLog
@@ -60,8 +61,6 @@ PACE_MIN_STEPS = 10_000
 #: Main-loop passes of the first kernel call; later calls are sized from the
 #: measured wall time (:func:`next_budget`).
 FIRST_BUDGET = 64
-#: Version of the checkpoint dictionary (:func:`checkpoint_state`).
-CHECKPOINT_FORMAT = 3
 #: Record groups of the kernel saved in a checkpoint (the buffers are saved live rows only).
 _SAVED_GROUPS = ("state", "work")
 
@@ -542,8 +541,7 @@ class EventRun:
             When ``state`` is not a checkpoint of this format, or its arrays do not
             fit the scene's.
         """
-        if int(state.get("format", -1)) != CHECKPOINT_FORMAT:
-            raise ValueError(f"not an event-stepper checkpoint of format {CHECKPOINT_FORMAT}")
+        check_checkpoint(state, "event")
         pk = self.packed
         rec = pk.records
         _restore_array(rec.clock, state["k_clock"], "clock")
@@ -569,7 +567,7 @@ class EventRun:
         self.next_checkpoint = steps + self.every if self.every > 0 else 0
         self.wall = float(state["wall_time"])
         self.resumed = True
-        _restore_log(self.log, state)
+        self.log.restore(state)
 
 
 def _grown_copy(saved, old: np.ndarray, rows: int, live: int) -> np.ndarray:
@@ -604,7 +602,9 @@ def checkpoint_state(run: EventRun, wall: float = 0.0, interrupted: bool = False
     Returns
     -------
     dict
-        Keys: ``format``; ``steps`` (steps taken); ``k_clock`` the kernel's clock
+        The keys every checkpoint has (:mod:`granular_chain.checkpoint`: ``format``,
+        ``stepper`` "event", the frame log's ``log_*``), then the run's own:
+        ``steps`` (steps taken); ``k_clock`` the kernel's clock
         record (:data:`~.records.CLOCK_DTYPE`: time, step, event and frame counts,
         the cadence position...); ``k_<group>_<field>`` every array of the kernel's
         ``state`` and ``work`` records (positions ``k_state_u``,
@@ -615,15 +615,11 @@ def checkpoint_state(run: EventRun, wall: float = 0.0, interrupted: bool = False
         numbering and units); the driver's counters ``handed``, ``frames`` (frames
         handed on so far), ``pe0``, ``kernel_balance``, ``budget``, ``mark_t``,
         ``mark_steps``, ``wall_time`` (seconds of kernel calls so far),
-        ``interrupted`` (taken because a signal stops the run); and the FrameLog's
-        ``log_count``, ``log_max_balance_error``, ``log_keep`` and its first and
-        latest frames ``log_first_<field>``, ``log_last_<field>`` (fields of
-        :class:`~granular_chain.frames.Frame`), for a resumed log that keeps only
-        those two.
+        ``interrupted`` (taken because a signal stops the run).
     """
     pk = run.packed
     rec = pk.records
-    state = {"format": CHECKPOINT_FORMAT, "steps": int(pk.clock.steps),
+    state = {"format": CHECKPOINT_FORMAT, "stepper": "event", "steps": int(pk.clock.steps),
              "k_clock": np.array(rec.clock)}
     for group in _SAVED_GROUPS:
         for name, arr in getattr(rec, group)._asdict().items():
@@ -638,32 +634,5 @@ def checkpoint_state(run: EventRun, wall: float = 0.0, interrupted: bool = False
                  kernel_balance=run.balance, budget=int(run.budget),
                  mark_t=float(run.mark[0]), mark_steps=int(run.mark[1]), wall_time=float(wall),
                  interrupted=bool(interrupted))
-    log = run.log
-    state.update(log_count=log.count, log_max_balance_error=float(log.max_balance_error),
-                 log_keep=bool(log.keep))
-    if log.count:
-        for which, k in (("first", 0), ("last", -1)):
-            for name in log._FIELDS:
-                value = log.kept[name][k]
-                state[f"log_{which}_{name}"] = np.array(value) if isinstance(
-                    value, np.ndarray) else value
+    state.update(run.log.checkpoint_state())
     return state
-
-
-def _restore_log(log: FrameLog, state: dict) -> None:
-    """Put a FrameLog's counters (and, keeping first and latest only, those two
-    frames) back as the checkpointed run's log had them."""
-    log.count = int(state["log_count"])
-    log.max_balance_error = float(state["log_max_balance_error"])
-    if log.keep or log.count == 0:
-        return
-    kept = {}
-    for name in log._FIELDS:
-        if f"log_first_{name}" not in state:  # a ledger term the checkpoint predates: 0
-            first = last = 0.0
-        else:
-            first, last = state[f"log_first_{name}"], state[f"log_last_{name}"]
-        if np.ndim(first) == 0:  # (numpy.savez turns scalars into 0-d arrays)
-            first, last = np.asarray(first).item(), np.asarray(last).item()
-        kept[name] = [first, last] if log.count >= 2 else [first]
-    log.kept = kept

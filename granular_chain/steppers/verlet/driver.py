@@ -25,6 +25,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from ..._compile import specialised
+from ...checkpoint import CHECKPOINT_FORMAT, check_checkpoint
 from ...codes import EVENT_KINDS, EventKind, Pause, Status
 from ...errors import SimulationError
 from ...forces import net_forces
@@ -454,10 +455,13 @@ class VerletRun:
         Returns
         -------
         dict
-            Name -> numpy array or numpy scalar (displacements, velocities, forces
-            of shape (N,), ledger, clock, frame cadence, first frame, events so far).
+            The keys every checkpoint has (:mod:`granular_chain.checkpoint`: ``format``,
+            ``stepper`` "verlet", the frame log's ``log_*``), then the run's own: name ->
+            numpy array or numpy scalar (displacements, velocities, forces of shape
+            (N,), ledger, clock, frame cadence, events so far).
         """
-        state = {name: getattr(self, name).copy() for name in self._STATE_ARRAYS}
+        state = {"format": CHECKPOINT_FORMAT, "stepper": "verlet"}
+        state.update({name: getattr(self, name).copy() for name in self._STATE_ARRAYS})
         state.update({name: np.float64(getattr(self, name)) if name in (
             "t_now", "dt_now", "next_thermo", "next_ck", "e0") else np.int64(getattr(self, name))
             for name in self._STATE_SCALARS})
@@ -467,11 +471,8 @@ class VerletRun:
                 state[f"forced_{name}"] = getattr(self.fstate, name).copy()
         state["opening"] = np.int64(self.opening)
         state["frame_due"] = np.int64(self.frame_due)
-        state["frames"] = np.int64(self.log.count)
-        state["max_error"] = np.float64(self.log.max_balance_error)
         state["thermo_lines"] = np.int64(getattr(self.thermo, "lines", 0))
-        for name in FrameLog._FIELDS:  # the run's first frame, kept by the Result
-            state[f"first_{name}"] = np.asarray(self.log.kept[name][0])
+        state.update(self.log.checkpoint_state())  # frames so far, first and latest
         if self.event_log is not None:  # the events logged so far (output.events)
             events = self.event_log.events
             state["events_t"] = np.array([e.t for e in events], dtype=np.float64)
@@ -482,6 +483,7 @@ class VerletRun:
         return state
 
     def _restore(self, state: dict) -> None:
+        check_checkpoint(state, "verlet")
         for name in self._STATE_ARRAYS:
             getattr(self, name)[:] = state[name]
         self.state.active[:] = state["active"]
@@ -500,9 +502,7 @@ class VerletRun:
         # the frame cadence goes on from the checkpoint's, up to this run's last step
         self._frame_after(int(state["frame_due"]) - self.plan.every if "frame_due" in state
                           else self.next_frame - self.plan.every)
-        first = Frame(**{name: _stored(state, f"first_{name}") for name in FrameLog._FIELDS
-                         if f"first_{name}" in state}, initial=self.e0)
-        self.log.resume(int(state["frames"]), float(state["max_error"]), first)
+        self.log.restore(state)
         if self.event_log is not None:
             times = state["events_t"].tolist()
             steps = state["events_step"].tolist() if "events_step" in state else \
@@ -860,9 +860,3 @@ def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):
     v -= tau * acc
     _net_forces(model, u, np.zeros(max(model.count - 1, 1)), f)
     return t_now - tau
-
-
-def _stored(state: dict, key: str):
-    """A checkpoint's value: a Python number for a 0-d entry, else the array."""
-    value = np.asarray(state[key])
-    return value.item() if value.ndim == 0 else value
