@@ -31,14 +31,25 @@ def contact_overlap(d0, u_left, u_right):
 
 @numba.njit(inline="always", cache=True)
 def contact_forces(law, u, d0, k, n, c):
-    """Fill ``c`` (N-1,) with the compressive force of every contact between granules
-    (>= 0; c[i] is table row i+1, between granules i and i+1).
+    """Fill rows 1..N-1 of ``c`` (N+1,) with the compressive force of every contact
+    between granules (>= 0; row j between granules j-1 and j).
 
     A loop with no loop-carried value: it vectorises.
     """
     for i in range(u.size - 1):
-        c[i] = contact_force(law, contact_overlap(d0[i + 1], u[i], u[i + 1]), k[i + 1],
-                             n[i + 1])
+        c[i + 1] = contact_force(law, contact_overlap(d0[i + 1], u[i], u[i + 1]), k[i + 1],
+                                 n[i + 1])
+
+
+@numba.njit(inline="always", cache=True)
+def net_contact_force(c, i):
+    """Net force of the contacts on granule i, positive to the right: c[i] - c[i+1], the
+    push of the contact on its left (table row i) less that of the one on its right
+    (row i+1), from the contact forces ``c`` (N+1,) in the table's rows (0 for a wall
+    that is absent). Every Verlet kernel that keeps the contact forces in an array
+    forms the net force here; the sweep, which keeps them in registers, writes the same
+    difference."""
+    return c[i] - c[i + 1]
 
 
 @numba.njit(inline="always", cache=True)
@@ -98,7 +109,8 @@ def wall_forces(law, left_wall, right_wall, u, d0, k, n):
 
 @numba.njit(inline="always", cache=True)
 def spring_forces(law, left_wall, right_wall, u, d0, k, n, c, f):
-    """Fill contact forces ``c`` (N-1,) and net spring forces ``f`` (N,).
+    """Fill the contact forces ``c`` (N+1,, the table's rows) and the net spring forces
+    ``f`` (N,).
 
     Parameters
     ----------
@@ -110,22 +122,18 @@ def spring_forces(law, left_wall, right_wall, u, d0, k, n, c, f):
         Shape (N+1,) each: initial overlaps (length), force coefficients
         (force / length^(n-1)) and exponents (dimensionless) of the contacts, the
         contact table's columns (rows 0 and N the walls), scene units.
-    c : ndarray, shape (N-1,)
-        Output: compressive force of each contact (>= 0), scene units of force.
+    c : ndarray, shape (N+1,)
+        Output: compressive force of each contact (>= 0) in the table's rows, the
+        walls' in rows 0 and N (0 without that wall), scene units of force.
     f : ndarray, shape (N,)
         Output: net spring force on each granule (positive to the right),
         scene units of force.
     """
     N = u.size
     contact_forces(law, u, d0, k, n, c)
-    fl, fr = wall_forces(law, left_wall, right_wall, u, d0, k, n)
-    if N > 1:
-        f[0] = fl - c[0]
-        for i in range(1, N - 1):
-            f[i] = c[i - 1] - c[i]
-        f[N - 1] = c[N - 2] - fr
-    else:
-        f[0] = fl - fr
+    c[0], c[N] = wall_forces(law, left_wall, right_wall, u, d0, k, n)
+    for i in range(N):
+        f[i] = net_contact_force(c, i)
 
 
 @numba.njit(inline="always", cache=True)
@@ -202,7 +210,8 @@ def net_forces(law, left_wall, right_wall, u, d0, k, n, c, f):
         (force / length^(n-1)) and exponents (dimensionless) of the contacts, the
         contact table's columns (rows 0 and N the walls), scene units.
     c : numpy.ndarray
-        Shape (N-1,), output: compressive force of each contact (>= 0), scene units.
+        Shape (N+1,), output: compressive force of each contact (>= 0) in the table's
+        rows (0 for a wall that is absent), scene units.
     f : numpy.ndarray
         Shape (N,), output: net spring force on each granule (positive to the
         right), scene units of force.

@@ -194,7 +194,8 @@ class Model:
     @property
     def walls(self) -> np.ndarray:
         """(d0, k, n) of the left then the right wall contact, shape (6,), zeros where
-        absent (:meth:`ContactTable.wall_triples`)."""
+        absent (:meth:`ContactTable.wall_triples`): the table's rows 0 and N as six
+        numbers, for scripts; the engine reads the table itself."""
         return self.contacts.wall_triples()
 
     @property

@@ -88,9 +88,9 @@ class ThermoLog:
         m = self._model
         if m.features.left_wall or m.features.right_wall:
             u = x - m.x0
-            w = m.walls
-            closed += int(m.features.left_wall and w[0] - u[0] > 0.0)
-            closed += int(m.features.right_wall and w[3] + u[-1] > 0.0)
+            d0 = m.contacts.d0  # the walls are the table's rows 0 and N
+            closed += int(m.features.left_wall and d0[0] - u[0] > 0.0)
+            closed += int(m.features.right_wall and d0[-1] + u[-1] > 0.0)
         sliding = int(np.count_nonzero(self._coulomb & (frame.v != 0.0)))
         return (frame.step, frame.t, frame.kinetic, frame.potential,
                 frame.coulomb + frame.viscous + frame.contact_dissipated, frame.balance_error,

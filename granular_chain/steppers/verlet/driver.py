@@ -61,8 +61,8 @@ def _drift_coefficients(model: Model, dt: float):
 
 
 def _net_forces(model: Model, u, c, f, d0=None):
-    """Contact forces c (N-1,) and net forces f (N,) at displacements u; ``d0`` (N+1,)
-    replaces the contact table's initial overlaps when given."""
+    """Contact forces c (N+1,, the table's rows) and net forces f (N,) at displacements
+    u; ``d0`` (N+1,) replaces the contact table's initial overlaps when given."""
     feat, t = model.features, model.contacts
     args = (feat.law, int(feat.left_wall), int(feat.right_wall), u,
             t.d0 if d0 is None else d0, t.k, t.n, c, f)
@@ -135,9 +135,9 @@ class VerletRun:
     def _init_state(self) -> None:
         model, N, dt = self.model, self.model.count, self.plan.dt
         self.u, self.v, self.f = np.zeros(N), model.v0.copy(), np.zeros(N)
-        c = np.zeros(max(N - 1, 1))
+        c = np.zeros(N + 1)
         _net_forces(model, self.u, c, self.f)
-        active = (c[: max(N - 1, 0)] > 0).astype(np.uint8)
+        active = (c[1:N] > 0).astype(np.uint8)  # the contacts between granules
         if active.size == 0:
             active = np.zeros(1, dtype=np.uint8)
         E, P1, P2 = _drift_coefficients(model, dt)
@@ -813,11 +813,11 @@ def _overlap_caps(model: Model):
     # The contact law's force at each limit, from the law the kernels use
     # (laws.contact through net_forces with d0 = lim and u = 0, so delta = lim
     # exactly), not from a second formula.
-    at_limit = np.zeros(lim.size)
+    at_limit = np.zeros(model.count + 1)
     d0 = model.contacts.d0.copy()
     d0[1:-1] = lim
     _net_forces(model, np.zeros(model.count), at_limit, np.zeros(model.count), d0=d0)
-    return olim, float(np.min(at_limit))
+    return olim, float(np.min(at_limit[1:-1]))
 
 
 def _passed(scan: Scan, olim) -> str:
@@ -858,5 +858,5 @@ def _backtrack_to_separation(model, u, v, f, ledger, i, dt, t_now):
     ledger[1] -= tau * float(np.dot(model.gamma, v * v))
     u -= tau * v - 0.5 * tau * tau * acc
     v -= tau * acc
-    _net_forces(model, u, np.zeros(max(model.count - 1, 1)), f)
+    _net_forces(model, u, np.zeros(model.count + 1), f)
     return t_now - tau

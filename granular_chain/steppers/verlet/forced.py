@@ -74,6 +74,7 @@ import numba
 import numpy as np
 
 from ...codes import Pause, Status
+from ...forces import net_contact_force
 from ...laws.contact import LAW_LINEAR, contact_force
 from ...laws.damping import (DAMPING_LINEAR, DAMPING_NONE, DAMPING_VISCOELASTIC,
                              damped_contact_force, dashpot_force, dashpot_primitive)
@@ -398,8 +399,8 @@ def closing_half(features, chain, timestep, state, forcing, fstate, counts):
             v1, w1, code = kick_after_jump(i, G, body[i], fstate.after_jump, eta[i],
                                            eta_s[i], inv_m[i], timestep.dt)
         else:
-            v1, w1, code = kick(features.coulomb, v[i], G[i] - G[i + 1] + body[i], eta[i],
-                                eta_s[i], inv_m[i], h)
+            v1, w1, code = kick(features.coulomb, v[i], net_contact_force(G, i) + body[i],
+                                eta[i], eta_s[i], inv_m[i], h)
         wc += w1
         n_stop += code & 1
         n_slip += (code >> 1) & 1
@@ -425,7 +426,7 @@ def end_forces(features, state, forcing, fstate, t):
         force[c] = damped_contact_force(law, damping, tensile, delta[c], a - b, k[c], n[c],
                                         coef[c])
     for i in range(N):
-        f[i] = force[i] - force[i + 1] + body[i]
+        f[i] = net_contact_force(force, i) + body[i]
 
 
 @numba.njit(inline="always", cache=True)

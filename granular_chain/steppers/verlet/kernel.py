@@ -444,7 +444,9 @@ def passes_chunk(features, chain, timestep, state, call, log):
                     if features.right_wall else 0.0
             contacts, fill = contact_pass(features, chain, state, (a, b), buffer, log, fill,
                                           step + 1, contacts)
-            # Pass 3: net force (the kick that ends the step is the next step's pass 1).
+            # Pass 3: net force (the kick that ends the step is the next step's pass 1),
+            # forces.net_contact_force's difference written out: the block's unsigned
+            # offsets plus a signed 1 would make a float index.
             ua = np.uint64(a)
             for i in range(np.uint64(max(a - 1, 0)), np.uint64(N if b == N else b - 1)):
                 f[i] = buffer[i + ONE - ua] - buffer[i + TWO - ua]
