@@ -17,7 +17,9 @@ looks for centres that met). Prints one JSON line per case: the median over
 --repeat batches of the microseconds per call.
 
 ``--against CHECKOUT`` also times that checkout's ``frame_scan.py`` in the same
-process, on the same arrays, in turn with this one (``against_us`` and the median
+process, on the same arrays (so CHECKOUT's ``scan_frame`` must take this tree's
+records: ``Chain`` with the contact table's columns and the table's ``d0``, from
+commit f444f6a on), in turn with this one (``against_us`` and the median
 of the batch-by-batch ratio ``ratio``, this one over that one). Between two
 processes the same call moves by up to 30 % on a 2-core virtual machine (where
 the arrays land in memory), which hides a change of a few microseconds::

@@ -84,7 +84,9 @@ def upgrade(state: dict) -> dict:
 
     The event stepper's format 3 had every key of format 4 but ``stepper``. A Verlet
     checkpoint written before format 4 has no ``format`` and kept its frame log as
-    ``frames``, ``max_error`` and ``first_<field>``, without the latest frame.
+    ``frames``, ``max_error`` and ``first_<field>``, without the latest frame. Any other
+    state (an older event format) is returned as it is, for :func:`check_checkpoint` to
+    refuse.
 
     Parameters
     ----------
@@ -100,6 +102,8 @@ def upgrade(state: dict) -> dict:
         return state
     state = dict(state)
     if "format" in state:
+        if int(state["format"]) != 3:
+            return state  # no layout this reads: check_checkpoint refuses it, naming it
         state["stepper"] = "event"
     else:
         state["stepper"] = "verlet"
@@ -111,25 +115,33 @@ def upgrade(state: dict) -> dict:
     return state
 
 
-def check_checkpoint(state: dict, stepper: str) -> None:
-    """Refuse a state that is not a checkpoint of this format from ``stepper``.
+def check_checkpoint(state: dict, stepper: str) -> dict:
+    """The state in the terms of :data:`CHECKPOINT_FORMAT` (:func:`upgrade`), refused
+    unless it is a checkpoint of ``stepper``.
 
     Parameters
     ----------
     state : dict
-        A checkpoint state (:func:`upgrade` it first when it was read from a file).
+        A checkpoint state, as stored or as a driver gave it.
     stepper : str
         "verlet" or "event": the stepper that is to continue it.
+
+    Returns
+    -------
+    dict
+        The upgraded state.
 
     Raises
     ------
     ValueError
         Naming what the state is instead.
     """
+    state = upgrade(state)
     fmt, made_by = int(state.get("format", -1)), str(state.get("stepper", "?"))
     if fmt != CHECKPOINT_FORMAT or made_by != stepper:
         raise ValueError(f"not a checkpoint of the {stepper} stepper of format "
                          f"{CHECKPOINT_FORMAT} (format {fmt}, stepper {made_by})")
+    return state
 
 
 def scene_difference(a, b, path: str = "") -> str:

@@ -126,3 +126,14 @@ def test_a_stepper_refuses_the_other_steppers_checkpoint(runs):
         gc.simulate(_scene("event"), resume=verlet)
     with pytest.raises(ValueError, match="format 3"):
         check_checkpoint({**verlet, "format": 3}, "verlet")
+
+
+def test_a_state_of_no_layout_known_is_refused_and_an_old_one_in_memory_is_read(runs):
+    whole, states = runs["event"]
+    older = {key: value for key, value in states[1].items() if key != "stepper"}
+    with pytest.raises(ValueError, match="format 2"):  # (an event format before 3)
+        gc.simulate(_scene("event"), resume={**older, "format": 2})
+    # a format-3 state held in memory, never written to a file, continues as well
+    _same_end(_resumed("event", {**older, "format": 3}), whole)
+    verlet_whole, verlet_states = runs["verlet"]
+    _same_end(_resumed("verlet", _as_before(verlet_states[1])), verlet_whole)

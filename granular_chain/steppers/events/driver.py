@@ -541,7 +541,7 @@ class EventRun:
             When ``state`` is not a checkpoint of this format, or its arrays do not
             fit the scene's.
         """
-        check_checkpoint(state, "event")
+        state = check_checkpoint(state, "event")
         pk = self.packed
         rec = pk.records
         _restore_array(rec.clock, state["k_clock"], "clock")

@@ -483,7 +483,7 @@ class VerletRun:
         return state
 
     def _restore(self, state: dict) -> None:
-        check_checkpoint(state, "verlet")
+        state = check_checkpoint(state, "verlet")
         for name in self._STATE_ARRAYS:
             getattr(self, name)[:] = state[name]
         self.state.active[:] = state["active"]

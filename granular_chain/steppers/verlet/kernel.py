@@ -400,7 +400,8 @@ def passes_chunk(features, chain, timestep, state, call, log):
     features : Features
         Compile-time codes (``coulomb`` 1).
     chain, timestep, state, call : Chain, Timestep, State, Call
-        See :mod:`.records`; arrays of shape (N,) or (N-1,), units of the model.
+        See :mod:`.records`; arrays of shape (N,), the contact table's columns
+        (N+1,), units of the model.
     log : EventBuffers
         Read only with ``features.log_events``; a step starts only with room for
         :func:`.event_log.log_capacity` entries, else the call returns LOG_FULL.

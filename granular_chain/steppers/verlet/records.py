@@ -39,7 +39,8 @@ class Features(NamedTuple):
         STOP_ON_SEPARATION (the opening of ``Call.stop_contact``) | STOP_ON_REST.
     uniform : int
         PER_GRANULE, UNIFORM (every granule the same m, E, P1, P2 and every
-        contact the same d0, k, n: the sweep reads element 0 once) or UNIT
+        contact the same d0, k, n: the sweep reads granule 0's values and the
+        table's row 1 once) or UNIT
         (moreover m = k = 1, d0 = 0, compiled in as constants). The blocked
         passes ignore it.
     log_events : int
