@@ -46,6 +46,7 @@ _drop_stale_kernels()
 
 from .errors import SimulationError  # noqa: E402
 from .extras import MissingExtraError  # noqa: E402
+from .laws.contact import register_contact_law  # noqa: E402
 from .notices import (  # noqa: E402
     CompileNotice,
     GranularChainWarning,
@@ -62,4 +63,4 @@ from .version import __version__  # noqa: E402
 __all__ = ["Scene", "SceneError", "load_scene", "scene_from_dict", "simulate", "Result",
            "Status", "Event", "SimulationError", "read_run", "MissingExtraError",
            "GranularChainWarning", "OverlapWarning", "TimeStepWarning", "PlotSkippedWarning",
-           "CompileNotice"]
+           "CompileNotice", "register_contact_law"]

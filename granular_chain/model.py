@@ -24,7 +24,7 @@ from .contact_table import ContactTable, contact_table
 from .distributions import draw, is_recipe
 from .forces import total_potential
 from .initial_state import read_state
-from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER
+from .laws.contact import LAW_HERTZ, LAW_LINEAR, LAW_POWER, contact_law, law_of_code
 from .laws.damping import DAMPING_LINEAR, DAMPING_NONE, DAMPING_VISCOELASTIC
 from .laws.wall_motion import WALL_FIXED, WALL_PULSE, WALL_SINE, WALL_VELOCITY
 from .restitution import choose_damping, contact_time_scale, scaled_damping, solve_damping
@@ -44,8 +44,8 @@ class Features:
     Attributes
     ----------
     law : int
-        LAW_LINEAR, LAW_HERTZ or LAW_POWER, the contact law of every contact
-        (mixed exponents use LAW_POWER).
+        Code of the contact law of every contact (:mod:`granular_chain.laws.contact`:
+        LAW_LINEAR, LAW_HERTZ, LAW_POWER for mixed exponents, or a registered law's).
     coulomb : bool
         Some granule has kinetic friction (eta_i > 0).
     viscous : bool
@@ -102,8 +102,7 @@ class Features:
             ``law``, ``damping`` as words; the booleans as they are.
         """
         return {
-            "law": {LAW_LINEAR: "linear (n=2)", LAW_HERTZ: "hertz (n=5/2)",
-                    LAW_POWER: "power"}[self.law],
+            "law": law_of_code(self.law).words,
             "coulomb": self.coulomb, "viscous": self.viscous,
             "left_wall": self.left_wall, "right_wall": self.right_wall,
             "damping": {DAMPING_NONE: "none", DAMPING_LINEAR: "linear",
@@ -365,6 +364,21 @@ def friction_features(eta, eta_static, gamma):
     return coulomb, (gamma > 0).any(axis=-1)
 
 
+def _law(scene: Scene, n_exp: np.ndarray) -> int:
+    """The contact law's code: the one ``contacts.law`` names, or by the exponents of
+    every contact and wall ('auto': linear when all are 2, hertz when all are 5/2,
+    the general power law otherwise)."""
+    if scene.contacts.law != "auto":
+        return contact_law(scene.contacts.law).code
+    exps = list(n_exp) + [w.exponent for w in (scene.walls.left, scene.walls.right)
+                          if w is not None]
+    if all(e == 2.0 for e in exps):
+        return LAW_LINEAR
+    if all(e == 2.5 for e in exps):
+        return LAW_HERTZ
+    return LAW_POWER
+
+
 def build_model(scene: Scene) -> Model:
     """Pack a validated scene into a :class:`Model`.
 
@@ -409,17 +423,7 @@ def build_model(scene: Scene) -> Model:
     eta_s = _per(fr.static, N) if fr.static is not None else eta.copy()
     gamma = _per(fr.viscous, N)
 
-    exps = list(n_exp)
-    if left is not None:
-        exps.append(left.exponent)
-    if right is not None:
-        exps.append(right.exponent)
-    if all(e == 2.0 for e in exps):
-        law = LAW_LINEAR
-    elif all(e == 2.5 for e in exps):
-        law = LAW_HERTZ
-    else:
-        law = LAW_POWER
+    law = _law(scene, n_exp)
     coulomb, viscous = friction_features(eta, eta_s, gamma)
     motion = _wall_motion(scene)
     table = contact_table(d0, k, n_exp, walls, left is not None, right is not None,

@@ -6,9 +6,11 @@ from typing import Annotated, Literal, Optional, Union
 
 from pydantic import (
     Field,
+    field_validator,
     model_validator,
 )
 
+from ..laws.contact import contact_law
 from .values import (Bool, Exponent, NonNegative, Num, PerItemScale, Positive, _FieldProblem,
                      _Strict)
 
@@ -61,6 +63,10 @@ class Damping(_Strict):
 class Contacts(_Strict):
     """One-sided power-law contacts: force k * delta^(n-1) while delta > 0."""
 
+    law: str = Field(
+        "auto", description="Contact law: 'auto' (linear for n = 2, hertz for n = 5/2, power "
+        "otherwise), one of those by name, or a law registered with "
+        "granular_chain.register_contact_law (docs/architecture.md).")
     exponent: Union[Exponent, list[Exponent]] = Field(
         2.0, description="Exponent n of the potential (2 linear, 2.5 Hertz); force ~ delta^(n-1); "
         "2.5 by default with stiffness: hertz.")
@@ -74,6 +80,17 @@ class Contacts(_Strict):
     tensile: Bool = Field(
         False, description="false: the total contact force never pulls and the contact ends "
         "when it reaches zero; true: the contact ends at overlap 0 and may pull before.")
+
+    @field_validator("law")
+    @classmethod
+    def _known_law(cls, name: str) -> str:
+        """'auto' or a registered law (an installed package's entry point included)."""
+        if name != "auto":
+            try:
+                contact_law(name)
+            except KeyError as exc:
+                raise ValueError(exc.args[0]) from None
+        return name
 
     @model_validator(mode="before")
     @classmethod

@@ -13,6 +13,7 @@ from pydantic import (
     model_validator,
 )
 
+from ..laws.contact import contact_law
 from .contacts import Contacts
 from .granules import Granules
 from .output import Output
@@ -96,6 +97,7 @@ class Scene(_Strict):
                     f"static threshold {sta.flat[i]} of granule {i} is below its kinetic "
                     f"friction {kin.flat[i]}")
         self._check_overlaps(n)
+        self._check_law()
         self._check_dissipation_and_forces(n)
         if "separation" in self.run.stop_conditions and self.run.stop_contact > n - 2:
             raise _FieldProblem("run.stop_contact",
@@ -157,16 +159,42 @@ class Scene(_Strict):
                                         f"or use run.stepper: {owner}")
         return self
 
+    def _exponents(self) -> list:
+        """(dotted path, exponent) of every contact's exponent, the walls' included."""
+        exps = self.contacts.exponent
+        named = [("contacts.exponent", e) for e in (exps if isinstance(exps, list) else [exps])]
+        return named + [(f"walls.{side}.exponent", getattr(self.walls, side).exponent)
+                        for side in ("left", "right") if getattr(self.walls, side) is not None]
+
+    def _check_law(self) -> None:
+        """A named law fits the exponents it stands for; a registered law (not built in)
+        runs on the Verlet stepper, with no dashpot written for power laws."""
+        if self.contacts.law == "auto":
+            return
+        law = contact_law(self.contacts.law)
+        if law.exponent is not None:
+            bad = next(((path, e) for path, e in self._exponents() if e != law.exponent), None)
+            if bad is not None:
+                raise _FieldProblem(bad[0], f"is {bad[1]:g} but contacts.law: {law.name} is "
+                                    f"the n = {law.exponent:g} law")
+        if law.builtin:
+            return
+        if self.run.stepper == "event":
+            raise _FieldProblem("contacts.law", f"{law.name} is not built in: the event stepper "
+                                f"has Taylor series only for linear, hertz and power; use "
+                                f"run.stepper: verlet")
+        damping = self.contacts.damping
+        if damping is not None and damping.model != "linear":
+            raise _FieldProblem("contacts.damping.model", f"{damping.model} is written for the "
+                                f"power law k delta^(n-1), not for contacts.law: {law.name}; "
+                                f"use model: linear")
+
     def _check_dissipation_and_forces(self, n: int) -> None:
         """Restitution away from n = 2 needs the speed at which e holds; per-granule
         body forces need one value per granule."""
         damping = self.contacts.damping
         if damping is not None and damping.model == "restitution" and damping.speed is None:
-            exps = self.contacts.exponent
-            named = [("contacts.exponent", e) for e in (exps if isinstance(exps, list) else [exps])]
-            named += [(f"walls.{side}.exponent", getattr(self.walls, side).exponent)
-                      for side in ("left", "right") if getattr(self.walls, side) is not None]
-            bad = next(((path, e) for path, e in named if e != 2.0), None)
+            bad = next(((path, e) for path, e in self._exponents() if e != 2.0), None)
             if bad is not None:
                 raise _FieldProblem(
                     "contacts.damping.speed", f"model restitution needs speed (the impact "

@@ -128,7 +128,9 @@ class ContactForces(NamedTuple):
 @numba.njit(cache=True)
 def _law_forces(law, overlap, k, n, force):
     """``force[i] = F(overlap[i])`` by the contact law ``law`` of :mod:`..laws.contact`
-    (LAW_LINEAR, LAW_HERTZ or LAW_POWER); arrays of shape (M,)."""
+    (LAW_LINEAR, LAW_HERTZ, LAW_POWER or a registered law's); arrays of shape (M,).
+    Compiled once per law (its code a compile-time constant)."""
+    law = numba.literally(law)
     for i in range(overlap.size):
         force[i] = contact_force(law, overlap[i], k[i], n[i])
 
@@ -177,7 +179,9 @@ def dissipation_of(model) -> Optional[Dissipation]:
 @numba.njit(cache=True)
 def _damped_forces(law, damping, tensile, overlap, rate, k, n, coefficient, force):
     """``force[i]``: spring plus dashpot of contact i (:func:`..laws.damping.damped_contact_force`)
-    at overlap ``overlap[i]`` and overlap rate ``rate[i]``; arrays of shape (M,)."""
+    at overlap ``overlap[i]`` and overlap rate ``rate[i]``; arrays of shape (M,).
+    Compiled once per law (its code a compile-time constant)."""
+    law = numba.literally(law)
     for i in range(overlap.size):
         force[i] = damped_contact_force(law, damping, tensile, overlap[i], rate[i], k[i], n[i],
                                         coefficient[i])

@@ -10,6 +10,7 @@ import numba
 import numpy as np
 
 from ..._compile import specialised
+from ...laws.contact import law_of_code
 from ...laws.damping import DAMPING_VISCOELASTIC
 from ...model import LAW_LINEAR, Model
 from .kernel import run_events
@@ -303,6 +304,9 @@ def pack_run(model: Model, options: EventOptions, stream: bool = False) -> Packe
     feat = model.features
     N = model.count
     law = int(feat.law)
+    if not law_of_code(law).builtin:
+        raise ValueError(f"the event stepper has Taylor series only for the built-in contact "
+                         f"laws, not {law_of_code(law).name}: use the Verlet stepper")
     linear = law == LAW_LINEAR
     settings = _settings(options, N, linear)
     present, overlap, stiffness, exponent = _contacts(model)
