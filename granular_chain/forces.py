@@ -42,14 +42,20 @@ def contact_forces(law, u, d0, k, n, c):
 
 
 @numba.njit(inline="always", cache=True)
+def net_force(left, right):
+    """Net force of its two contacts on a granule, positive to the right: the push
+    ``left`` of the contact on its left less the push ``right`` of the one on its right
+    (force units; 0 for a wall that is absent). Every Verlet kernel forms the net force
+    here: the sweep from the two forces it keeps in registers, the others through
+    :func:`net_contact_force`."""
+    return left - right
+
+
+@numba.njit(inline="always", cache=True)
 def net_contact_force(c, i):
-    """Net force of the contacts on granule i, positive to the right: c[i] - c[i+1], the
-    push of the contact on its left (table row i) less that of the one on its right
-    (row i+1), from the contact forces ``c`` (N+1,) in the table's rows (0 for a wall
-    that is absent). Every Verlet kernel that keeps the contact forces in an array
-    forms the net force here; the sweep, which keeps them in registers, writes the same
-    difference."""
-    return c[i] - c[i + 1]
+    """Net force of the contacts on granule i from the contact forces ``c`` (N+1,) in the
+    table's rows: :func:`net_force` of row i (its left contact) and row i+1 (its right)."""
+    return net_force(c[i], c[i + 1])
 
 
 @numba.njit(inline="always", cache=True)

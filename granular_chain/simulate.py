@@ -228,13 +228,8 @@ def _run(scene: Scene, model: Model, schedule: Schedule, progress, writers, keep
     every = scene.output.checkpoint_every
     try:
         if scene.run.stepper == "event":
-            def synced(state):  # the writers have every frame so far before the state
-                log.sync()
-                checkpoint(state)
-
             result = simulate_events(event_options(scene, schedule), model, log=log,
-                                     resume=resume,
-                                     checkpoint=synced if checkpoint else None,
+                                     resume=resume, checkpoint=checkpoint,
                                      checkpoint_every=every or 0, progress=progress)
         else:
             run = VerletRun(scene, model, progress, log=log, thermo=thermo, checkpoint=checkpoint,

@@ -25,6 +25,7 @@ kernel is compiled for one law: its code is a compile-time constant, and
 
 from __future__ import annotations
 
+import inspect
 import math
 import zlib
 from dataclasses import dataclass
@@ -32,9 +33,8 @@ from importlib import metadata
 from typing import Callable, Optional
 
 import numba
-from numba.core import types
 from numba.core.errors import TypingError
-from numba.extending import overload
+from numba.extending import overload, sentry_literal_args
 
 LAW_LINEAR = 0
 LAW_HERTZ = 1
@@ -178,6 +178,16 @@ def contact_law(name: str) -> ContactLaw:
     """The law registered as ``name``, looked for among the installed packages' entry
     points (group :data:`ENTRY_POINT_GROUP`) when no module has registered it yet.
 
+    Parameters
+    ----------
+    name : str
+        The law's name (``contacts.law``).
+
+    Returns
+    -------
+    ContactLaw
+        The registered law.
+
     Raises
     ------
     KeyError
@@ -194,7 +204,23 @@ def contact_law(name: str) -> ContactLaw:
 
 
 def law_of_code(code: int) -> ContactLaw:
-    """The registered law compiled under ``code``."""
+    """The registered law compiled under ``code``.
+
+    Parameters
+    ----------
+    code : int
+        A law's code (:attr:`ContactLaw.code`, ``Features.law``).
+
+    Returns
+    -------
+    ContactLaw
+        The law.
+
+    Raises
+    ------
+    KeyError
+        No law of that code is registered in this process.
+    """
     try:
         return _BY_CODE[int(code)]
     except KeyError:
@@ -222,9 +248,14 @@ def _compiled_law(which: str):
     """The typing of :func:`registered_force` / :func:`registered_energy`: the law is
     looked up by its code, which must be a compile-time constant."""
     def typer(law, d, k, n):
-        if not isinstance(law, types.IntegerLiteral):
-            raise TypingError(f"the contact law's code must be a compile-time constant "
-                              f"(numba.literally), not {law}")
+        # A code not yet a compile-time constant (a call from Python with a plain int):
+        # numba compiles the caller again with it as one, as numba.literally does.
+        sentry_literal_args(_SIGNATURE, ("law",), (law, d, k, n), {})
+        if law.literal_value in (LAW_LINEAR, LAW_HERTZ, LAW_POWER):
+            # contact_force / contact_energy take the built-in codes in their own
+            # branches; numba still types this one, which is never reached for them:
+            # a constant keeps their kernels' compile as short as it was.
+            return lambda law, d, k, n: 0.0
         try:
             fn = getattr(law_of_code(law.literal_value), which)
         except KeyError as exc:
@@ -236,6 +267,7 @@ def _compiled_law(which: str):
     return typer
 
 
+_SIGNATURE = inspect.signature(registered_force)
 overload(registered_force, inline="always")(_compiled_law("force"))
 overload(registered_energy, inline="always")(_compiled_law("energy"))
 

@@ -26,13 +26,14 @@ from ...checkpoint import CHECKPOINT_FORMAT, check_checkpoint
 from ...codes import Pause, Status
 from ...errors import SimulationError
 from ...frames import Frame, FrameLog
-from ...interrupts import CHUNK_SECONDS, stop_signals
+from ...interrupts import CHUNK_SECONDS
 from ...ledger import ledger_verdict
 from ...model import Model
 from ...progress import progress_bar
 from ...result import EnergyLedger, Event, Result, ledger_balance
 from ...units import (internal_scales, scaled_model, scaled_parameters, speed_scale,
                       unit_factors)
+from ..loop import Checkpoints, run_loop
 from ..opening import opening_floor, resolved_opening
 from .options import EventOptions, event_options
 from .output import record_final_frame
@@ -166,22 +167,21 @@ def simulate_events(options, model: Model, log: FrameLog | None = None, *, resum
         atol = unscaled_atol(model, options.atol)
         if atol != options.atol:
             options = options._replace(atol=atol)
-        r = run_packed(options, model, None, **kw)
-        if log is not None:
-            log.close(r)
-        return r
+        return run_packed(options, model, None, **kw)
     M, A, B = scales
     units = unit_factors(M, A, B)
-    r = run_packed(options.in_time_unit(B), scaled_model(model, M, A, B), units, **kw)
-    _to_scene_units(r, units, streamed)
-    r.info["event_stepper"]["internal_scales"] = {"mass": M, "length": A, "time": B}
-    # the ledger in the scene's units (rounded again by the scaling): judged again
-    r.status, r.message = ledger_verdict(r, r.info["event_stepper"]["ledger_tolerance"])
-    if model.units == "physical":
-        r.info["scaled"] = scaled_parameters(model)
-    if log is not None:
-        log.close(r)
-    return r
+
+    def in_scene_units(r: Result) -> Result:
+        _to_scene_units(r, units, streamed)
+        r.info["event_stepper"]["internal_scales"] = {"mass": M, "length": A, "time": B}
+        # the ledger in the scene's units (rounded again by the scaling): judged again
+        r.status, r.message = ledger_verdict(r, r.info["event_stepper"]["ledger_tolerance"])
+        if model.units == "physical":
+            r.info["scaled"] = scaled_parameters(model)
+        return r
+
+    return run_packed(options.in_time_unit(B), scaled_model(model, M, A, B), units,
+                      finish=in_scene_units, **kw)
 
 
 def _to_scene_units(r: Result, u, streamed: bool) -> None:
@@ -200,12 +200,13 @@ def _to_scene_units(r: Result, u, streamed: bool) -> None:
 
 
 def run_packed(options: EventOptions, model: Model, units, log=None, resume=None,
-               checkpoint=None, checkpoint_every=0, progress=None) -> Result:
+               checkpoint=None, checkpoint_every=0, progress=None, finish=None) -> Result:
     """Run ``model`` (in the kernel's units) with ``options``; ``units`` the factors to
     the scene's own units (:class:`~granular_chain.units.UnitFactors`, None: the same),
     used for the streamed frames and for times in messages. With a ``log`` (or
     ``resume`` or ``checkpoint``) the frames are streamed (:class:`EventRun`);
-    ``progress`` as :func:`simulate_events`'.
+    ``progress`` as :func:`simulate_events`'. ``finish`` (Result -> Result) puts the
+    Result in the scene's units before the log is closed with it.
 
     Returns
     -------
@@ -215,30 +216,123 @@ def run_packed(options: EventOptions, model: Model, units, log=None, resume=None
         ``output.dt`` cadence (see :func:`~.options.frame_interval`), and at the
         end; ``events`` the full event log; ``steps`` the Taylor steps taken.
     """
-    tscale = units.t if units is not None else 1.0
     packed = pack_run(model, options, stream=log is not None)
-    run = None
-    if log is not None:
-        run = EventRun(packed, log, units, checkpoint, checkpoint_every)
+    run = EventRun(packed, log, units, checkpoint, checkpoint_every) if log is not None else None
+    return run_loop(EventStepper(packed, run, options, model, units, progress, finish), resume)
+
+
+class EventStepper:
+    """The event stepper as :func:`..loop.run_loop` drives it (its ``Stepper``
+    protocol): kernel calls sized to about CHUNK_SECONDS, frames handed on and
+    checkpoints taken between them (:class:`EventRun`), the Result at the end.
+
+    Parameters
+    ----------
+    packed : Packed
+        The run's records (kernel units).
+    run : EventRun or None
+        Its streaming side (None: the frames stay in the kernel's buffers).
+    options : EventOptions
+        The run's options (kernel units).
+    model : Model
+        The model the kernel runs (kernel units).
+    units : UnitFactors or None
+        Factors to the scene's units (None: the same).
+    progress : bool or None
+        As :func:`simulate_events`'.
+    finish : callable(Result) -> Result, optional
+        Applied to the Result before it is returned (the scene's units).
+    """
+
+    def __init__(self, packed: Packed, run: Optional["EventRun"], options: EventOptions,
+                 model: Model, units, progress=None, finish=None):
+        self.packed, self.run, self.model, self.finish = packed, run, model, finish
+        self.tscale = units.t if units is not None else 1.0
+        self.t_end = options.t_end
+        self.log = run.log if run is not None else None
+        self.bar = progress_bar(progress, options.t_end, scale=self.tscale)
+        self.pace = None
+
+    def begin(self, resume: Optional[dict]) -> None:
+        """Restore ``resume`` (the first frame is the kernel's own).
+
+        Parameters
+        ----------
+        resume : dict or None
+            A :func:`checkpoint_state` of a run of the same scene.
+        """
         if resume is not None:
-            run.restore(resume)
-    bar = progress_bar(progress, options.t_end, scale=tscale)
-    try:
-        with stop_signals() as stop:
-            code, wall = drive(packed, stop, run, bar)
-    finally:
-        if bar is not None:
-            bar.close()
-    if run is not None:
-        run.flush()
-        wall += run.wall
-    result = build_result(packed, code, wall, model, tscale, run)
-    if code == Status.INTERRUPTED:
-        result.info["signal"] = stop.signum
-        result.message = (f"stopped by {stop.name} at t = {result.t_final * tscale:.12g} "
-                          f"(t_end = {options.t_end * tscale:g}); the result holds the "
-                          f"frames computed until then")
-    return result
+            self.run.restore(resume)
+        self.pace = Pace(self.packed, self.run)
+
+    def advance(self, stop) -> Optional[tuple]:
+        """One kernel call and what follows it (:meth:`Pace.call`).
+
+        Parameters
+        ----------
+        stop : StopRequest
+            Whether a signal asks the run to stop.
+
+        Returns
+        -------
+        tuple or None
+            ``(status, message)`` when the run ends (message None: the report words
+            it), else None.
+        """
+        code = self.pace.call(stop)
+        if code is None:
+            return None
+        if code != Status.INTERRUPTED:
+            return code, None  # (the report words it)
+        return code, (f"stopped by {stop.name} at t = {self.time() * self.tscale:.12g} "
+                      f"(t_end = {self.t_end * self.tscale:g}); the result holds the "
+                      f"frames computed until then")
+
+    def time(self) -> float:
+        """The simulated time reached.
+
+        Returns
+        -------
+        float
+            Kernel units of time (the bar scales it).
+        """
+        return float(self.packed.clock.time)
+
+    def checkpoint_state(self) -> dict:
+        """:func:`checkpoint_state` of the streamed run now.
+
+        Returns
+        -------
+        dict
+            The checkpoint (:func:`checkpoint_state`).
+        """
+        return checkpoint_state(self.run, self.run.wall + self.pace.elapsed())
+
+    def report(self, status, message: Optional[str], wall: float) -> Result:
+        """The Result (:func:`.report.build_result`), in the scene's units.
+
+        Parameters
+        ----------
+        status : int
+            The kernel's end code.
+        message : str or None
+            The end in words (None: the report's own).
+        wall : float
+            Seconds of kernel calls in this process.
+
+        Returns
+        -------
+        Result
+            The run, in the scene's units.
+        """
+        run = self.run
+        if run is not None:
+            run.flush()
+            wall += run.wall
+        result = build_result(self.packed, status, wall, self.model, self.tscale, run)
+        if message is not None:
+            result.message = message
+        return self.finish(result) if self.finish is not None else result
 
 
 def next_budget(budget: int, seconds: float) -> int:
@@ -265,34 +359,61 @@ def next_budget(budget: int, seconds: float) -> int:
     return int(min(max(scaled, budget / 8.0, 1.0), 4.0 * budget, 1 << 40))
 
 
-def drive(packed: Packed, stop=None, run=None, bar=None):
-    """Call the kernel until it returns a Status.
+class Pace:
+    """Kernel calls one at a time, each sized to return within about CHUNK_SECONDS.
 
-    With a :class:`~granular_chain.interrupts.StopRequest` ``stop``, each call
-    makes a bounded number of main-loop passes (sized to return within about
-    CHUNK_SECONDS) and a requested stop ends the run with Status.INTERRUPTED
-    between calls; the kernel resumes from its records, so the trajectory is the
-    same bit for bit as in one call. With an :class:`EventRun` ``run``, the
-    frames recorded by each call are handed on between calls and checkpoints are
-    taken (:meth:`EventRun.between`), and the pace counters start from the run's.
-    A :class:`~granular_chain.progress.ProgressBar` ``bar`` is moved to the
-    simulated time reached after each call.
+    With a :class:`~granular_chain.interrupts.StopRequest`, each call makes a
+    bounded number of main-loop passes and a requested stop ends the run with
+    Status.INTERRUPTED between calls; the kernel resumes from its records, so the
+    trajectory is the same bit for bit as in one call. With an :class:`EventRun`,
+    the frames recorded by each call are handed on between calls and checkpoints
+    are taken (:meth:`EventRun.between`), and the pace counters start from the run's.
     A run that cannot reach t_end within run.max_steps at its pace ends with
-    Status.MAX_STEPS (``packed.out_of_steps``). Returns the code and the wall
-    time (seconds).
+    Status.MAX_STEPS (``packed.out_of_steps``).
+
+    Parameters
+    ----------
+    packed : Packed
+        The run's records.
+    run : EventRun or None
+        Its streaming side.
     """
-    settings = packed.records.settings
-    budget = FIRST_BUDGET if run is None else run.budget
-    start = time.perf_counter()
-    clock = packed.clock
-    mark = (float(clock.time), int(clock.steps)) if run is None else run.mark
-    if bar is not None:
-        bar.start(float(clock.time))
-    while True:
+
+    def __init__(self, packed: Packed, run: Optional["EventRun"] = None):
+        self.packed, self.run = packed, run
+        self.budget = FIRST_BUDGET if run is None else run.budget
+        clock = packed.clock
+        self.mark = (float(clock.time), int(clock.steps)) if run is None else run.mark
+        self.start = time.perf_counter()
+
+    def elapsed(self) -> float:
+        """Seconds since the first call.
+
+        Returns
+        -------
+        float
+        """
+        return time.perf_counter() - self.start
+
+    def call(self, stop=None) -> Optional[int]:
+        """One kernel call and what follows it.
+
+        Parameters
+        ----------
+        stop : StopRequest, optional
+            Whether a signal asks the run to stop (None: one unbounded call).
+
+        Returns
+        -------
+        int or None
+            The run's end code, or None while it goes on.
+        """
+        packed, run = self.packed, self.run
+        settings = packed.records.settings
         if stop is None:
             settings["budget"] = 0
         else:
-            settings["budget"] = budget if run is None else run.passes(budget)
+            settings["budget"] = self.budget if run is None else run.passes(self.budget)
         t0 = time.perf_counter()
         code = packed.call()
         if code == Pause.LOG_FULL:
@@ -300,29 +421,38 @@ def drive(packed: Packed, stop=None, run=None, bar=None):
                 run.flush()  # (the kernel resumes a step cut short by a full buffer)
             grow_buffers(packed)
         elif code == Pause.CHUNK_DONE:
-            budget = next_budget(budget, time.perf_counter() - t0)
-            if _out_of_steps(packed, mark):
-                code = Status.MAX_STEPS
+            self.budget = next_budget(self.budget, time.perf_counter() - t0)
+            if _out_of_steps(packed, self.mark):
                 packed.out_of_steps = True
                 _final_frame(packed)
-                break
+                return self._end(Status.MAX_STEPS)
             clock = packed.clock
-            mark = (float(clock.time), int(clock.steps))
+            self.mark = (float(clock.time), int(clock.steps))
         elif code == Status.SEPARATED and not _opening_resolved(packed):
             pass  # the overlap decayed through roundoff: the run goes on
         else:
-            break
+            return self._end(code)
         interrupted = stop is not None and stop.requested
-        if bar is not None:
-            bar.update(float(packed.clock.time))
         if run is not None:
-            run.between(budget, mark, time.perf_counter() - start, interrupted)
+            run.between(self.budget, self.mark, self.elapsed(), interrupted)
         if interrupted:
-            code = Status.INTERRUPTED
             _final_frame(packed)
-            break
-    settings["budget"] = 0
-    return int(code), time.perf_counter() - start
+            return self._end(Status.INTERRUPTED)
+        return None
+
+    def _end(self, code) -> int:
+        self.packed.records.settings["budget"] = 0
+        return int(code)
+
+
+def drive(packed: Packed, stop=None):
+    """Call the kernel until it returns a Status (:class:`Pace`, no streaming): the
+    collision maps' loop. Returns the code and the wall time (seconds)."""
+    pace = Pace(packed)
+    code = None
+    while code is None:
+        code = pace.call(stop)
+    return code, pace.elapsed()
 
 
 def _opening_resolved(packed: Packed) -> bool:
@@ -432,7 +562,7 @@ class EventRun:
     def __init__(self, packed: Packed, log: FrameLog, units, checkpoint=None,
                  checkpoint_every: int = 0):
         self.packed, self.log, self.units = packed, log, units
-        self.checkpoint = checkpoint
+        self.checkpoints = Checkpoints(log, checkpoint)
         self.every = int(checkpoint_every) if checkpoint is not None else 0
         self.handed = 0  #: rows of the frame buffers already handed on
         self.frames = 0  #: frames handed on over the whole run (Frame.step)
@@ -482,8 +612,8 @@ class EventRun:
         due = self.every > 0 and steps >= self.next_checkpoint
         if due:
             self.next_checkpoint = steps + self.every
-        if self.checkpoint is not None and (due or interrupted):
-            self.checkpoint(checkpoint_state(self, self.wall + wall, interrupted))
+        if due or interrupted:
+            self.checkpoints.write(lambda: checkpoint_state(self, self.wall + wall, interrupted))
 
     def flush(self) -> None:
         """Hand on the frames recorded since the last flush; keep the last one in row 0."""

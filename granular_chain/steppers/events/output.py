@@ -86,6 +86,8 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
 
 @numba.njit(cache=True, error_model="numpy", _nrt=False)
 def record_final_frame(law, clock_array, model, state, frames):
-    """A frame at the clock's time (driver: an interrupted run's last state)."""
+    """A frame at the clock's time (driver: an interrupted run's last state); compiled
+    for the run's law (its code a compile-time constant, as in the kernel)."""
+    law = numba.literally(law)
     clock = clock_array[0]
     record_frame(law, clock.time, clock, model, state, frames, 0.0, 0.0)

@@ -30,13 +30,14 @@ from ...codes import EVENT_KINDS, EventKind, Pause, Status
 from ...errors import SimulationError
 from ...forces import net_forces
 from ...frames import Frame, FrameLog, RunEnds
-from ...interrupts import CHUNK_SECONDS, stop_signals
+from ...interrupts import CHUNK_SECONDS
 from ...laws.friction import drift_tables
 from ...model import Model
 from ...progress import progress_bar
 from ...result import OVERLAP_ADVICE, TERMS_ADDED, EnergyLedger, Event, Result, ledger_balance
 from ...units import scaled_parameters
 from ..opening import opening_floor, resolved_opening, roundoff_note
+from ..loop import Checkpoints, run_loop
 from ..schedule import Schedule
 from .event_log import EventLog, new_event_log
 from .forced import forced_chunk
@@ -106,10 +107,11 @@ class VerletRun:
                  schedule: Optional[Schedule] = None):
         settings = scene.run
         self.model, self.thermo = model, thermo
-        self.on_checkpoint, self.checkpoint_every = checkpoint, checkpoint_every
+        self.checkpoint_every = checkpoint_every
         self.next_ck = None
         self.T = model.shortest_period()  # period or collision time of the stiffest contact
         self.log = log if log is not None else FrameLog()
+        self.checkpoints = Checkpoints(self.log, checkpoint)
         self.plan = plan = step_plan(model, scene) if schedule is None else schedule.plan
         if settings.check_dt:
             check_dt(model, plan.dt)
@@ -264,7 +266,7 @@ class VerletRun:
                 body_work(self.model, self.u))
 
     def run(self, resume: Optional[dict] = None) -> Result:
-        """Step to t_end or a stop condition; the Result of the run.
+        """Step to t_end or a stop condition (:func:`..loop.run_loop`); the Result.
 
         ``resume``: a state from :meth:`checkpoint_state` of the same scene; the
         run goes on from it as if it had never stopped (its writers must have
@@ -279,6 +281,17 @@ class VerletRun:
         -------
         Result
             The run's frames, ledger, final state and status, scene units.
+        """
+        return run_loop(self, resume)
+
+    def begin(self, resume: Optional[dict]) -> None:
+        """Record the first frame (and thermo line), or restore ``resume``; set the
+        triggers: the next frame, thermo line and checkpoint.
+
+        Parameters
+        ----------
+        resume : dict or None
+            A :meth:`checkpoint_state` of a run of the same scene.
         """
         if resume is None:
             first = self.frame()
@@ -295,26 +308,51 @@ class VerletRun:
             # Result keeps the first and the latest, and the ledger error over them all
             self.log.keep = False
             self._restore(resume)
-        start = time.perf_counter()  # stepping time: from the first frame on
-        if self.bar is not None:
-            self.bar.start(self.t_now)
-        try:
-            with stop_signals() as stop:
-                status, message = self._loop(stop)
-        finally:
-            if self.bar is not None:
-                self.bar.close()
+        self.thermo_every = self.thermo.every if self.thermo is not None else 0
+        self.chunk = _Chunk(self.model.count)
+        self.ck_every = self.checkpoint_every or 0
+        if not self.ck_every:
+            self.next_ck = math.inf
+        # The kernel reads rest off a kick only after a call's first step: a Coulomb
+        # run that stops at rest is tested here at the end of every call, wherever
+        # calls end, so its stop step does not depend on them.
+        self.rest_watch = self.merged and bool(self.stop_mode & STOP_ON_REST)
+
+    def time(self) -> float:
+        """The simulated time reached.
+
+        Returns
+        -------
+        float
+            Scene units of time.
+        """
+        return self.t_now
+
+    def report(self, status, message: str, wall: float) -> Result:
+        """The Result of the run.
+
+        Parameters
+        ----------
+        status : Status
+            How the run ended.
+        message : str
+            The end in words.
+        wall : float
+            Seconds of stepping in this process.
+
+        Returns
+        -------
+        Result
+            Frames, ledger, final state and status (scene units).
+        """
         self.counts[EventKind.STOP] += self.sync[1]
         self.counts[EventKind.SLIP] += self.sync[2]
         result = _assemble(self.log, self.model, self.e0, status, message, self.steps,
-                           time.perf_counter() - start, self.plan.dt, self.counts)
+                           wall, self.plan.dt, self.counts)
         if self.event_log is not None:
             result.events = self.event_log.commit()  # with the last half kick's
         if self.plan.note:
             result.info.setdefault("warnings", []).append(self.plan.note)
-        if status == Status.INTERRUPTED:
-            result.info["signal"] = stop.signum
-        self.log.close(result)
         return result
 
     def _init_checkpoints(self) -> None:
@@ -328,67 +366,78 @@ class VerletRun:
         self.frame_due = steps + self.plan.every
         self.next_frame = min(self.frame_due, self._last_step())
 
-    def _loop(self, stop):
-        thermo_every = self.thermo.every if self.thermo is not None else 0
-        chunk = _Chunk(self.model.count)
-        ck_every = self.checkpoint_every or 0
-        if not ck_every:
-            self.next_ck = math.inf
-        # The kernel reads rest off a kick only after a call's first step: a Coulomb
-        # run that stops at rest is tested here at the end of every call, wherever
-        # calls end, so its stop step does not depend on them.
-        rest_watch = self.merged and bool(self.stop_mode & STOP_ON_REST)
-        chunk_done = int(Pause.CHUNK_DONE)  # (a plain int: compared after every call)
-        deferring = self.deferring
-        while self.steps < self.n_total or (self.last_dt and not self.short_taken):
-            if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
-                self._begin_short_step()  # (next_frame is already its end: _last_step)
-            # A compiled call runs to the next frame, thermo line or checkpoint, or for
-            # about CHUNK_SECONDS, whichever is first.
-            target = min(self.next_frame, self.next_thermo, self.next_ck,
-                         self.steps + chunk.steps, self.n_total)
-            code = self._advance(chunk, int(target) - self.steps)
-            if code == Status.SEPARATED and not self._opening_resolved():
-                code = chunk_done  # the overlap decayed through roundoff: the run goes on
-            if deferring and self.log.ended is not None:  # a frame handed on ended the run
-                return self._drained()
-            if rest_watch:
-                code = self._synchronise(code)
-            at_frame = self.steps >= self.next_frame or code != chunk_done or stop.requested
-            at_thermo = self.steps >= self.next_thermo
-            at_ck = self.steps >= self.next_ck
-            at_end_ck = self.steps == self.end_ck
-            if deferring and at_frame and code == chunk_done and not (
-                    at_thermo or at_ck or at_end_ck or stop.requested or self._finished()):
-                if not rest_watch:
-                    self._synchronise(code)
-                self._defer()
-                continue
-            if deferring and (at_frame or at_thermo or at_ck or at_end_ck):
-                # what follows reads the frames handed on: they are all made first
-                ended = self._drained()
-                if ended is not None:
-                    return ended
-            if at_frame or at_thermo:
-                if not rest_watch:
-                    code = self._synchronise(code)
-                ended, scan = self._check(code)
-                if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
-                                                      Status.UNSTABLE):
-                    return ended
-                frame = self.frame(scan)
-                if self.thermo is not None and (at_thermo or ended is not None):
-                    self.thermo.write_frame(frame)
-                    self.next_thermo = self.steps + thermo_every if thermo_every else math.inf
-                if at_frame:
-                    done = self._at_frame(frame, ended, stop)
-                    if done is not None:
-                        return done
-            if at_ck:  # (the cadence moves on first: the state saved holds the next one)
-                self.next_ck = self.steps + ck_every
-            if at_ck or at_end_ck:
-                self._checkpoint()
-        ended = self._drained() if deferring else None
+    def advance(self, stop) -> Optional[tuple]:
+        """One compiled call, to the next frame, thermo line or checkpoint, or for about
+        CHUNK_SECONDS, whichever is first, and what is due after it.
+
+        Parameters
+        ----------
+        stop : StopRequest
+            Whether a signal asks the run to stop (:func:`..loop.run_loop`'s).
+
+        Returns
+        -------
+        tuple or None
+            ``(status, message)`` when the run ends here, else None.
+        """
+        if not (self.steps < self.n_total or (self.last_dt and not self.short_taken)):
+            return self._end()
+        if self.steps == self.n_total:  # one shorter step ends the run exactly at t_end
+            self._begin_short_step()  # (next_frame is already its end: _last_step)
+        target = min(self.next_frame, self.next_thermo, self.next_ck,
+                     self.steps + self.chunk.steps, self.n_total)
+        code = self._advance(self.chunk, int(target) - self.steps)
+        if code == Status.SEPARATED and not self._opening_resolved():
+            code = _CHUNK_DONE  # the overlap decayed through roundoff: the run goes on
+        if self.deferring and self.log.ended is not None:  # a frame handed on ended the run
+            return self._drained()
+        if self.rest_watch:
+            code = self._synchronise(code)
+        at_frame = self.steps >= self.next_frame or code != _CHUNK_DONE or stop.requested
+        at_thermo = self.steps >= self.next_thermo
+        at_ck = self.steps >= self.next_ck
+        at_end_ck = self.steps == self.end_ck
+        if self.deferring and at_frame and code == _CHUNK_DONE and not (
+                at_thermo or at_ck or at_end_ck or stop.requested or self._finished()):
+            if not self.rest_watch:
+                self._synchronise(code)
+            self._defer()
+            return None
+        if self.deferring and (at_frame or at_thermo or at_ck or at_end_ck):
+            # what follows reads the frames handed on: they are all made first
+            ended = self._drained()
+            if ended is not None:
+                return ended
+        if at_frame or at_thermo:
+            done = self._frame_due(code, at_frame, at_thermo, stop)
+            if done is not None:
+                return done
+        if at_ck:  # (the cadence moves on first: the state saved holds the next one)
+            self.next_ck = self.steps + self.ck_every
+        if at_ck or at_end_ck:
+            self._checkpoint()
+        return None
+
+    def _frame_due(self, code: int, at_frame: bool, at_thermo: bool, stop) -> Optional[tuple]:
+        """Check the state and make the frame of a frame or thermo line due after a
+        call; (status, message) when the run ends here."""
+        if not self.rest_watch:
+            code = self._synchronise(code)
+        ended, scan = self._check(code)
+        if ended is not None and ended[0] in (Status.NONFINITE, Status.OVERLAP,
+                                              Status.UNSTABLE):
+            return ended
+        frame = self.frame(scan)
+        if self.thermo is not None and (at_thermo or ended is not None):
+            self.thermo.write_frame(frame)
+            self.next_thermo = self.steps + self.thermo_every if self.thermo_every else math.inf
+        if at_frame:
+            return self._at_frame(frame, ended, stop)
+        return None
+
+    def _end(self) -> tuple:
+        """(status, message) of a run that has taken every step of its plan."""
+        ended = self._drained() if self.deferring else None
         if ended is not None:
             return ended
         if self.limited:
@@ -521,10 +570,8 @@ class VerletRun:
         return self.steps >= self.n_total and (not self.last_dt or self.short_taken)
 
     def _checkpoint(self) -> None:
-        if self.on_checkpoint is None or self._finished():
-            return  # (a finished run has nothing to continue)
-        self.log.sync()  # the frames so far are on disk before the state that follows them
-        self.on_checkpoint(self.checkpoint_state())
+        if not self._finished():  # (a finished run has nothing to continue)
+            self.checkpoints.write(self.checkpoint_state)
 
     def _control(self, n_steps: int) -> Call:
         return Call(n_steps=int(n_steps), opening=self.opening, stop_contact=self.stop_contact)
@@ -545,8 +592,6 @@ class VerletRun:
         # the whole steps of the plan end at t_end itself (steps * dt may be an ulp off)
         ends = self.short_taken or (self.steps == self.plan.steps and not self.plan.last_dt)
         self.t_now = self.t_end if ends else self.steps * self.plan.dt
-        if self.bar is not None:
-            self.bar.update(self.t_now)
         return code
 
     def _call(self, chunk, n_steps: int):
@@ -716,6 +761,7 @@ class _NoStop:
 
 
 _NO_STOP = _NoStop()
+_CHUNK_DONE = int(Pause.CHUNK_DONE)  # (a plain int: compared after every call)
 
 
 def _assemble(log: FrameLog, model: Model, e0, status, message, steps, wall, dt, counts):

@@ -74,7 +74,7 @@ import numba
 import numpy as np
 
 from ...codes import Pause, Status
-from ...forces import net_contact_force
+from ...forces import net_contact_force, net_force
 from ...laws.contact import LAW_LINEAR, contact_force
 from ...laws.damping import (DAMPING_LINEAR, DAMPING_NONE, DAMPING_VISCOELASTIC,
                              damped_contact_force, dashpot_force, dashpot_primitive)
@@ -272,7 +272,7 @@ def kick_after_jump(i, G, body, after, eta, eta_s, inv_m, dt):
     r = dt * max(after[i], after[i + 1])
     left = G[i] * (h / r) if after[i] > 0.0 else G[i]
     right = G[i + 1] * (h / r) if after[i + 1] > 0.0 else G[i + 1]
-    v1, w1, w2, code = coulomb_kick(0.0, left - right + body, eta, eta_s, inv_m, r)
+    v1, w1, w2, code = coulomb_kick(0.0, net_force(left, right) + body, eta, eta_s, inv_m, r)
     return v1, w1, code
 
 

@@ -36,8 +36,8 @@ import numba
 import numpy as np
 
 from ...codes import Pause, Status
-from ...forces import (contact_overlap, left_wall_force, left_wall_overlap, right_wall_force,
-                       right_wall_overlap)
+from ...forces import (contact_overlap, left_wall_force, left_wall_overlap, net_force,
+                       right_wall_force, right_wall_overlap)
 from ...laws.contact import contact_force
 from ...laws.friction import at_rest_by, coulomb_kick, free_kick, viscous_drift
 from .event_log import (CLOSE, OPEN, SLIP, STOP, closed, log_capacity, log_event, log_walls,
@@ -259,7 +259,7 @@ def sweep_chunk(features, chain, timestep, state, call, log):
             now = closed(d0i, ui, un)
             n_change += now ^ was
             n_net += now - was
-            F = left - ci
+            F = net_force(left, ci)
             v1, w = sweep_second_half(viscous, vi, F, dui, param(uniform, m, m0, i),
                                       param(uniform, inv_m, im0, i), param(uniform, P2, P20, i),
                                       times)
@@ -273,7 +273,7 @@ def sweep_chunk(features, chain, timestep, state, call, log):
         right = 0.0
         if features.right_wall:
             right = right_wall_force(law, d0, k, n, ui)
-        F = left - right
+        F = net_force(left, right)
         v1, w = sweep_second_half(viscous, vi, F, dui, m[last], inv_m[last], P2[last], times)
         n_moving += store_granule(state, last, ui, v1, F, stop_mode)
         wv += w
@@ -446,11 +446,11 @@ def passes_chunk(features, chain, timestep, state, call, log):
             contacts, fill = contact_pass(features, chain, state, (a, b), buffer, log, fill,
                                           step + 1, contacts)
             # Pass 3: net force (the kick that ends the step is the next step's pass 1),
-            # forces.net_contact_force's difference written out: the block's unsigned
-            # offsets plus a signed 1 would make a float index.
+            # from the block's buffer (net_contact_force's rows at unsigned offsets: a
+            # signed 1 added to them would make a float index).
             ua = np.uint64(a)
             for i in range(np.uint64(max(a - 1, 0)), np.uint64(N if b == N else b - 1)):
-                f[i] = buffer[i + ONE - ua] - buffer[i + TWO - ua]
+                f[i] = net_force(buffer[i + ONE - ua], buffer[i + TWO - ua])
             buffer[0] = buffer[b - a]
         wc, wv, n_stop, n_slip, n_moving = kicks
         n_close, n_open, n_hard = contacts
