@@ -34,7 +34,8 @@ from typing import Optional
 from .checkpoint import CHECKPOINT, load_checkpoint, save_checkpoint, scene_difference
 from .rundir import (MARKER, OutputError, _pid_alive, check_out, check_partial, read_marker,
                      remove_files)
-from .scene import Scene, apply_overrides, load_scene, own_stepper_options, scene_from_dict
+from .scene import (Scene, SceneError, apply_overrides, load_scene, own_stepper_options,
+                    scene_from_dict)
 from .steppers.schedule import thermo_every
 from .steppers.verlet.timestep import step_plan
 
@@ -279,10 +280,21 @@ def _refuse_stages(source, scene: Scene) -> None:
                           f"is not continued from a checkpoint: run it again")
 
 
+def _with_defaults(stored: dict) -> dict:
+    """The stored scene as the schema reads it now: a field added since the run was
+    written compares as its default (a missing ``contacts.law`` as 'auto'); a mapping
+    the schema no longer reads is compared as stored."""
+    try:
+        return scene_from_dict(stored, stored=True).model_dump(mode="json")
+    except SceneError:
+        return stored
+
+
 def _check_scene(source: Path, stored: dict, scene: Scene, complete: bool) -> None:
     """Refuse a scene that is not the run's own but for a later ``run.t_end``."""
     _refuse_stages(source, scene)
     given = scene.model_dump(mode="json")
+    stored = _with_defaults(stored)
     t_old, t_new = stored.get("run", {}).get("t_end"), scene.run.t_end
     differs = scene_difference(stored, {**given, "run": {**given["run"], "t_end": t_old}})
     if differs:

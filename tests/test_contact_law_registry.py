@@ -210,3 +210,60 @@ def test_validate_names_the_law(laws, tmp_path, capsys):
                      "contacts: {law: quadratic, exponent: 3}\nrun: {dt: 0.01, t_end: 1.0}\n")
     assert main(["validate", str(scene)]) == 0
     assert json.loads(capsys.readouterr().out)["features"]["law"] == "quadratic (n=3)"
+
+
+LAW_SOURCE = """\
+import math
+import numba
+
+ALPHA = {alpha}
+
+
+@numba.njit
+def helper(d):
+    return {helper}
+
+
+@numba.njit
+def force(d, k, n):
+    return k * ALPHA * helper(d) * math.{fn}(1.0) * (lambda x: x)(1.0)
+"""
+
+
+def _code_of(**edit):
+    namespace = {}
+    exec(LAW_SOURCE.format(**{"alpha": 1.0, "helper": "d * d", "fn": "sin", **edit}), namespace)
+    return contact._law_code("edited", namespace["force"], namespace["force"], None)
+
+
+def test_a_changed_law_gets_another_code():
+    """What the law computes with is in its code: a kernel cached on disk for one
+    version is never loaded for another (the constant it reads, a helper it calls, a
+    function it names), and the same source gives the same code again."""
+    base = _code_of()
+    assert _code_of() == base
+    edited = [_code_of(alpha=2.0), _code_of(helper="d * d * d"), _code_of(fn="cos")]
+    assert len({base, *edited}) == 4
+
+
+def test_a_stored_scene_is_read_as_written(laws):
+    """A finished run's scene names a law a script registered: reading the run back
+    in a process without it needs no registration (its Model does)."""
+    data = {"granules": {"count": 3, "velocity": {0: 1.0}},
+            "contacts": {"law": "from_a_script", "exponent": 3}, "run": {"t_end": 1.0}}
+    assert gc.scene_from_dict(data, stored=True).contacts.law == "from_a_script"
+    with pytest.raises(gc.SceneError):
+        gc.scene_from_dict(data)
+
+
+def test_a_run_stored_before_contacts_law_continues():
+    """The scene of a run folder written before contacts.law existed has no such key:
+    --restart compares it as the default ('auto'), not as a different scene."""
+    from granular_chain import restart
+    scene = chain("auto")
+    stored = scene.model_dump(mode="json")
+    del stored["contacts"]["law"]
+    restart._check_scene(restart.Path("old_run"), stored, scene, complete=False)
+    stored["contacts"]["exponent"] = 2.5
+    with pytest.raises(restart.OutputError, match="contacts.exponent"):
+        restart._check_scene(restart.Path("old_run"), stored, scene, complete=False)

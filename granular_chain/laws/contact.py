@@ -30,9 +30,11 @@ import math
 import zlib
 from dataclasses import dataclass
 from importlib import metadata
+from types import CodeType, ModuleType
 from typing import Callable, Optional
 
 import numba
+import numpy as np
 from numba.core.errors import TypingError
 from numba.extending import overload, sentry_literal_args
 
@@ -121,12 +123,66 @@ _BY_CODE: dict[int, ContactLaw] = {}
 
 def _law_code(name: str, force, energy, exponent) -> int:
     """A code for a law that is not built in: above the built-in ones, and different
-    whenever the law's name, exponent or the bytecode of its functions differs."""
-    digest = zlib.crc32(f"{name}|{exponent!r}".encode())
+    whenever what the law computes may differ (:func:`_fingerprint`), so that a kernel
+    numba cached on disk for one version of a law is never loaded for another."""
+    digest, seen = zlib.crc32(f"{name}|{exponent!r}".encode()), set()
     for fn in (force, energy):
-        code = getattr(fn, "py_func", fn).__code__
-        digest = zlib.crc32(code.co_code + repr(code.co_consts).encode(), digest)
+        digest = _fingerprint(fn, digest, seen)
     return 16 + digest
+
+
+def _fingerprint(fn, digest: int, seen: set) -> int:
+    """crc32 ``digest`` carried over what a compiled function's result depends on: its
+    bytecode, the names it reads, its constants (nested functions by their code), the
+    values of the globals and closure cells it reads (numbers, strings, arrays by value;
+    functions, compiled or not, by their own fingerprint, recursively; modules by
+    name; other objects by type only: a law reading an object's attributes is
+    registered under a new name when they change)."""
+    fn = getattr(fn, "py_func", fn)
+    if id(fn) in seen or not hasattr(fn, "__code__"):
+        return zlib.crc32(repr(getattr(fn, "__name__", type(fn).__name__)).encode(), digest)
+    seen.add(id(fn))
+    code = fn.__code__
+    digest = _code_digest(code, digest)
+    for name in sorted(_names_read(code)):
+        if name in fn.__globals__:
+            digest = _value_digest(fn.__globals__[name], digest, seen)
+    for cell in fn.__closure__ or ():
+        digest = _value_digest(cell.cell_contents, digest, seen)
+    return digest
+
+
+def _code_digest(code, digest: int) -> int:
+    """crc32 of a code object: bytecode, names, constants (nested code recursively)."""
+    digest = zlib.crc32(code.co_code + repr(code.co_names).encode(), digest)
+    for const in code.co_consts:
+        if isinstance(const, CodeType):
+            digest = _code_digest(const, digest)
+        else:
+            digest = zlib.crc32(repr(const).encode(), digest)
+    return digest
+
+
+def _names_read(code) -> set:
+    """Global names a code object and the code nested in it read."""
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, CodeType):
+            names |= _names_read(const)
+    return names
+
+
+def _value_digest(value, digest: int, seen: set) -> int:
+    """crc32 carried over one value a law reads (see :func:`_fingerprint`)."""
+    if isinstance(value, (bool, int, float, complex, str, bytes, tuple, type(None))):
+        return zlib.crc32(repr(value).encode(), digest)
+    if isinstance(value, np.ndarray):
+        return zlib.crc32(value.tobytes() + repr((value.dtype, value.shape)).encode(), digest)
+    if isinstance(value, ModuleType):
+        return zlib.crc32(value.__name__.encode(), digest)
+    if callable(value):
+        return _fingerprint(value, digest, seen)
+    return zlib.crc32(type(value).__name__.encode(), digest)
 
 
 def register_contact_law(name: str, force, energy, *, exponent: Optional[float] = None,

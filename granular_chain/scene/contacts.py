@@ -6,6 +6,7 @@ from typing import Annotated, Literal, Optional, Union
 
 from pydantic import (
     Field,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
@@ -83,9 +84,11 @@ class Contacts(_Strict):
 
     @field_validator("law")
     @classmethod
-    def _known_law(cls, name: str) -> str:
-        """'auto' or a registered law (an installed package's entry point included)."""
-        if name != "auto":
+    def _known_law(cls, name: str, info: ValidationInfo) -> str:
+        """'auto' or a registered law (an installed package's entry point included). The
+        scene of a finished run, read back for its record, is taken as it was written
+        (a law a script registered need not be registered to read its run)."""
+        if name != "auto" and not (info.context or {}).get("stored"):
             try:
                 contact_law(name)
             except KeyError as exc:

@@ -97,7 +97,6 @@ class Scene(_Strict):
                     f"static threshold {sta.flat[i]} of granule {i} is below its kinetic "
                     f"friction {kin.flat[i]}")
         self._check_overlaps(n)
-        self._check_law()
         self._check_dissipation_and_forces(n)
         if "separation" in self.run.stop_conditions and self.run.stop_contact > n - 2:
             raise _FieldProblem("run.stop_contact",
@@ -135,6 +134,14 @@ class Scene(_Strict):
             if given:
                 raise _FieldProblem(path, f"is not available with run.stages: {why}; "
                                     f"remove it, or run the stages as separate runs")
+        return self
+
+    @model_validator(mode="after")
+    def _law_fits(self, info: ValidationInfo) -> "Scene":
+        """The contact law fits the scene (:meth:`_check_law`); a stored scene is taken
+        as it was written."""
+        if not (info.context or {}).get("stored"):
+            self._check_law()
         return self
 
     @model_validator(mode="after")

@@ -62,6 +62,7 @@ import numba
 import numpy as np
 from tqdm import tqdm
 
+from .._compile import specialised
 from ..extras import require
 from ..laws.contact import LAW_POWER, contact_force
 from ..laws.damping import DAMPING_NONE, damped_contact_force
@@ -246,15 +247,19 @@ def contact_overlap_force(x, radius, k, n, walls=(None, None), law: int = LAW_PO
     if right is not None:  # delta_R = d0_R + u_(N-1) - s_R
         d[N], kk[N], nn[N] = right.d0 + (x[-1] - right.x0) - s_right, right.k, right.n
     force = np.zeros(N + 1)
+    # each kernel compiled for the run's law, its code a compile-time constant
+    # (specialised: looked up once per law, not typed again at every frame)
     if dissipation is None or dissipation.damping == DAMPING_NONE:
-        _law_forces(law, d, kk, nn, force)
+        args = (int(law), d, kk, nn, force)
+        specialised(_law_forces, args, (0,))(*args)
     else:
         v = np.asarray(v, dtype=np.float64)
         rate = np.empty(N + 1)  # d(delta)/dt: the left side's speed less the right side's
         rate[1:N] = v[:-1] - v[1:]
         rate[0], rate[N] = ds_left - v[0], v[-1] - ds_right
-        _damped_forces(law, dissipation.damping, dissipation.tensile, d, rate, kk, nn,
-                       dissipation.coefficient, force)
+        args = (int(law), int(dissipation.damping), int(dissipation.tensile), d, rate, kk, nn,
+                dissipation.coefficient, force)
+        specialised(_damped_forces, args, (0,))(*args)
     wall_overlap = np.where(present, d[[0, N]], np.nan)
     wall_force = np.where(present, force[[0, N]], 0.0)
     return ContactForces(d[1:N].copy(), force[1:N].copy(), wall_overlap, wall_force)
