@@ -20,7 +20,8 @@ in here and any other, written in a file of its own (``docs/architecture.md``,
 "Adding a contact law", is a worked example). A scene picks one with
 ``contacts.law``; by default the exponents choose among the built-in three. A
 kernel is compiled for one law: its code is a compile-time constant, and
-:func:`contact_force` and :func:`contact_energy` call that law's functions.
+:func:`contact_force` and :func:`contact_energy` call that law's functions, looked up in
+the registry while the kernel compiles (only the law's own code is typed and inlined).
 """
 
 from __future__ import annotations
@@ -290,13 +291,13 @@ def known_laws() -> list[str]:
 
 
 def registered_force(law, d, k, n):
-    """Force of the registered law of code ``law`` at overlap ``d >= 0`` (compiled: the
-    law's own function, chosen while the kernel compiles)."""
+    """Force of the law of code ``law`` (built in or registered) at overlap ``d >= 0``
+    (compiled: the law's own function, chosen while the kernel compiles)."""
     return law_of_code(law).force(d, k, n)
 
 
 def registered_energy(law, d, k, n):
-    """Energy of the registered law of code ``law`` at overlap ``d >= 0``."""
+    """Energy of the law of code ``law`` (built in or registered) at overlap ``d >= 0``."""
     return law_of_code(law).energy(d, k, n)
 
 
@@ -307,11 +308,6 @@ def _compiled_law(which: str):
         # A code not yet a compile-time constant (a call from Python with a plain int):
         # numba compiles the caller again with it as one, as numba.literally does.
         sentry_literal_args(_SIGNATURE, ("law",), (law, d, k, n), {})
-        if law.literal_value in (LAW_LINEAR, LAW_HERTZ, LAW_POWER):
-            # contact_force / contact_energy take the built-in codes in their own
-            # branches; numba still types this one, which is never reached for them:
-            # a constant keeps their kernels' compile as short as it was.
-            return lambda law, d, k, n: 0.0
         try:
             fn = getattr(law_of_code(law.literal_value), which)
         except KeyError as exc:
@@ -332,8 +328,8 @@ overload(registered_energy, inline="always")(_compiled_law("energy"))
 def contact_force(law, d, k, n):
     """Force of a contact of overlap ``d`` (any sign): zero unless ``d > 0``.
 
-    ``law`` is a compile-time constant in the kernels, so only one branch is
-    compiled into each specialisation.
+    ``law`` is a compile-time constant in the kernels: only that law's force is typed
+    and compiled into each specialisation (:func:`registered_force`).
 
     Parameters
     ----------
@@ -353,16 +349,7 @@ def contact_force(law, d, k, n):
         Repulsive force ``k max(d, 0)^(n-1)``, scene units of force.
     """
     d = max(d, 0.0)
-    # The built-in laws written out (the same functions as their registry entries),
-    # so their kernels are compiled as they always were; any other through the registry.
-    if law == LAW_LINEAR:
-        return linear_force(d, k, n)
-    elif law == LAW_HERTZ:
-        return hertz_force(d, k, n)
-    elif law == LAW_POWER:
-        return power_force(d, k, n)
-    else:
-        return registered_force(law, d, k, n)
+    return registered_force(law, d, k, n)
 
 
 @numba.njit(inline="always", cache=True)
@@ -387,14 +374,7 @@ def contact_energy(law, d, k, n):
         ``k max(d, 0)^n / n``, scene units of energy.
     """
     d = max(d, 0.0)
-    if law == LAW_LINEAR:
-        return linear_energy(d, k, n)
-    elif law == LAW_HERTZ:
-        return hertz_energy(d, k, n)
-    elif law == LAW_POWER:
-        return power_energy(d, k, n)
-    else:
-        return registered_energy(law, d, k, n)
+    return registered_energy(law, d, k, n)
 
 
 for _law in (ContactLaw("linear", LAW_LINEAR, linear_force, linear_energy, 2.0, "linear (n=2)", True),
