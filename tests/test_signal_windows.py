@@ -171,3 +171,40 @@ def test_signal_while_compiling_stops_a_run_cleanly(tmp_path, signum):
     assert "Traceback" not in err and "nothing written" in err, err
     assert _entries(tmp_path) == [e for e in _entries(tmp_path) if e.startswith("cache")] + \
         ["scene.yaml"]
+
+
+# The process ending: its command is done; an exit function stands in for the moment
+# (it runs where the interpreter's teardown, with the signals' default actions, ran).
+_ENDING = """\
+import atexit, os, signal, sys, threading, time
+from granular_chain.cli import main
+{setup}
+sys.argv = ["granular-chain", "schema"]
+main()
+"""
+
+
+def _ending(setup: str):
+    return subprocess.run([sys.executable, "-c", _ENDING.format(setup=setup)],
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_a_signal_as_the_process_ends_exits_at_once_without_a_traceback():
+    """SIGINT after the command is done (its output whole): exit 130 at once, one
+    whole output, no traceback (it was a KeyboardInterrupt in the teardown, or the
+    process killed by the signal)."""
+    done = _ending("atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), "
+                   "time.sleep(60), print('not reached', file=sys.stderr)))")
+    assert done.returncode == 130, done.stderr
+    assert "Traceback" not in done.stderr and "not reached" not in done.stderr
+    assert json.loads(done.stdout)["title"]
+
+
+def test_the_process_ends_after_its_threads_and_exit_functions():
+    """The quick end still joins the threads that are not daemons and runs the exit
+    functions, as the interpreter's exit does."""
+    done = _ending("threading.Thread(target=lambda: (time.sleep(0.3), "
+                   "print('thread done', file=sys.stderr))).start()\n"
+                   "atexit.register(lambda: print('exit function', file=sys.stderr))")
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.splitlines()[-2:] == ["thread done", "exit function"]

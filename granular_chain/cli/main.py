@@ -9,10 +9,11 @@ import importlib
 import os
 import signal
 import sys
+import threading
 import warnings
 
 from ..extras import MissingExtraError
-from ..interrupts import raise_on_signals
+from ..interrupts import STOP_SIGNALS, raise_on_signals
 from ..notices import CompileNotice, GranularChainWarning, PlotSkippedWarning
 from ..version import __version__
 from .exit_codes import EXIT_BAD_INPUT, fail
@@ -69,29 +70,55 @@ def main(argv=None) -> int:
         Exit status (see :mod:`granular_chain.cli.exit_codes`).
     """
     _drop_output_to_closed_pipes()
-    with warnings.catch_warnings():  # (restores the hook and filters on return)
-        warnings.simplefilter("always", GranularChainWarning)
-        # a feature set's notice once (the run after prepare_kernels may compile more
-        # of the same feature set's kernels)
-        warnings.simplefilter("default", CompileNotice)
-        warnings.showwarning = show_warning
-        status = _main(argv)
-    if argv is None and status > 128:  # the process's own command, stopped by a signal
+    try:
+        with warnings.catch_warnings():  # (restores the hook and filters on return)
+            warnings.simplefilter("always", GranularChainWarning)
+            # a feature set's notice once (the run after prepare_kernels may compile
+            # more of the same feature set's kernels)
+            warnings.simplefilter("default", CompileNotice)
+            warnings.showwarning = show_warning
+            status = _main(argv)
+    except KeyboardInterrupt as exc:  # a signal in the instant after the command's own
+        # handlers were restored: its files are whole or cleaned up by then
+        status = 128 + getattr(exc, "signum", signal.SIGINT)
+    if argv is None:  # the process's own command: it ends the process
         _exit_now(status)
     return status
 
 
 def _exit_now(status: int) -> None:
-    """End the process at once, its files closed and its output flushed: the
-    interpreter's teardown (unloading the compiled kernels) can take seconds on a
-    loaded machine, and a user who asked the command to stop waits for it."""
+    """End the process once its command is done: its threads joined, its exit functions
+    run, its output flushed, without the interpreter's teardown.
+
+    That teardown (unloading the compiled kernels) takes about a second, more on a
+    loaded machine, and runs with the signals' default actions: a Ctrl-C then killed
+    a process whose result was already published, and a user who asked a command to
+    stop waited for it. A signal that arrives now ends the process at once with
+    128 + its number (its files are whole or cleaned up by now).
+    """
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, _exit_on_signal)
+    shutdown = getattr(threading, "_shutdown", None)  # what the interpreter's exit
+    if shutdown is not None:  # does first: join the threads that are not daemons
+        shutdown()
     atexit._run_exitfuncs()
+    _flush_output()
+    os._exit(status)
+
+
+def _exit_on_signal(signum, frame) -> None:
+    """The handler while the process ends: end it now, with 128 + ``signum``."""
+    _flush_output()
+    os._exit(128 + signum)
+
+
+def _flush_output() -> None:
+    """Flush stdout and stderr (either may be closed or a closed pipe)."""
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
         except (OSError, ValueError):
             pass
-    os._exit(status)
 
 
 def _main(argv) -> int:
