@@ -44,8 +44,6 @@ from fractions import Fraction
 
 import mpmath as mp
 import numpy as np
-from scipy import optimize
-from scipy.integrate import solve_ivp
 
 __all__ = ["Restitution", "linear_dashpot", "choose_damping", "restitution_reference",
            "contact_time_scale", "hertz_contact_time", "viscoelastic_group",
@@ -190,6 +188,7 @@ def choose_damping(e, k, m_eff, tensile=False) -> float:
     float
         ``c`` in kg/s.
     """
+    from scipy import optimize  # (on first use: tests/test_import_graph.py, DEFERRED)
     if not 0 < e <= 1:
         raise ValueError(f"restitution must be in (0, 1], got {e}")
     scale = 2.0 * math.sqrt(k * m_eff)
@@ -795,6 +794,7 @@ def scaled_restitution(g, n, tensile=False):
     float
         ``e`` in [0, 1] (0 when a tensile contact never ends, ``n = 2``, ``g >= 2``).
     """
+    from scipy.integrate import solve_ivp
     if not (g >= 0 and math.isfinite(g) and n > 1):
         raise ValueError(f"need g >= 0 finite and n > 1, got g = {g}, n = {n}")
     if g == 0:
@@ -837,6 +837,7 @@ def scaled_damping(e, n, tensile=False):
     float
         ``g >= 0`` (0 for ``e = 1``).
     """
+    from scipy import optimize
     if not 0 < e <= 1:
         raise ValueError(f"restitution must be in (0, 1], got {e}")
     if not n > 1:

@@ -5,6 +5,8 @@ and no import inside a function except of an optional extra.
 """
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "granular_chain"
@@ -147,6 +149,10 @@ def test_the_kernel_free_parts_hold_no_kernel_and_no_kernel_imports_them():
 #: [project.optional-dependencies]; a command that lacks one says which in one line).
 OPTIONAL = {"matplotlib", "pyvista", "vtkmodules", "meshio", "dask", "distributed", "xarray",
             "h5netcdf", "pandas", "IPython", "mkdocs"}
+#: ... and the heavy modules a function imports on first use, each with why: the command
+#: line imports the package at every start, and never needs them for most scenes.
+DEFERRED = {"scipy": "scipy.optimize and scipy.integrate take 0.5 s of every start of the "
+                     "command line (1.3 s in all); only the restitution solvers use them"}
 
 
 def _function_imports(tree) -> list:
@@ -163,7 +169,8 @@ def _function_imports(tree) -> list:
                 names = ["." * node.level + (node.module or "")]
             else:
                 continue
-            found += [(node.lineno, n) for n in names if n.split(".")[0] not in OPTIONAL]
+            found += [(node.lineno, n) for n in names
+                      if n.split(".")[0] not in OPTIONAL | set(DEFERRED)]
     return sorted(set(found))
 
 
@@ -171,6 +178,16 @@ def test_functions_import_only_optional_extras():
     found = [f"{_module(path)}:{line} {name}" for path in sorted(PACKAGE.rglob("*.py"))
              for line, name in _function_imports(ast.parse(path.read_text()))]
     assert found == []
+
+
+def test_the_command_line_starts_without_the_deferred_modules():
+    """What DEFERRED keeps out of every start of ``granular-chain``: no module of scipy's
+    optimize or integrate packages is imported with the command line."""
+    code = ("import sys, granular_chain.cli.main; print(sorted(m for m in sys.modules "
+            "if m.startswith(('scipy.optimize', 'scipy.integrate'))))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.strip() == "[]"
 
 
 def test_the_check_finds_an_import_inside_a_function():
