@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CHAIN = ROOT / "scenarios" / "chain_friction.yaml"
 
 # 5000 granules to t = 1e6: hours of stepping, so the signal always lands mid-run.
-LONG = ["--set", "granules.count=5000", "--set", "run.t_end=1e6", "--set", "output.dt=1000"]
+LONG = ["--set", "granules.count=5000", "--set", "run.t_end=1e6", "--set", "output.dt=100"]
 
 
 @pytest.fixture(scope="module", autouse=True)
