@@ -11,7 +11,13 @@ installed package first, or every kernel loads from it and nothing is logged::
     PYTHONPATH=benchmarks pytest -p suite_compile_log
     python benchmarks/suite_compile_log.py /tmp/compile-log
 
-Subprocesses (the CLI tests, the tutorials of the docs build) are not logged.
+Every Python process of the suite, its children included (the command-line and signal
+tests, the tutorials of the docs build, dask's workers), is logged with
+``benchmarks/compile_log_site`` on ``PYTHONPATH``: its ``sitecustomize`` registers the
+listener as numba's event module is imported; a child's compiles are given the test that
+started it (``PYTEST_CURRENT_TEST``) or its command line::
+
+    PYTHONPATH=benchmarks:benchmarks/compile_log_site pytest
 """
 
 import collections
@@ -23,6 +29,7 @@ import time
 from pathlib import Path
 
 _TEST = [None]
+_REGISTERED = []
 
 
 def _listener():
@@ -34,20 +41,55 @@ def _listener():
             self.started = []
 
         def on_start(self, ev):
-            self.started.append(time.perf_counter())
+            self.started.append(time.process_time())  # CPU s: the suite is CPU-bound
 
         def on_end(self, ev):
-            seconds = time.perf_counter() - self.started.pop()
+            seconds = time.process_time() - self.started.pop()
             fn = getattr(ev.data["dispatcher"], "py_func", None)
             name = f"{fn.__module__}.{fn.__qualname__}" if fn else str(ev.data["dispatcher"])
             codes = re.findall(r"Literal\[int\]\((-?\d+)\)", str(ev.data.get("args")))
             with self.path.open("a") as f:
-                f.write(json.dumps({"test": _TEST[0], "function": name, "seconds": seconds,
+                f.write(json.dumps({"test": _TEST[0] or _caller(), "function": name,
+                                    "seconds": seconds,
                                     "depth": len(self.started), "codes": codes}) + "\n")
 
+    if _REGISTERED:  # (the plugin in a process that sitecustomize already logs)
+        return
+    _REGISTERED.append(True)
     folder = Path(os.environ["SUITE_COMPILE_LOG"])
     folder.mkdir(parents=True, exist_ok=True)
     event.register("numba:compile", CompileLog(folder))
+
+
+def _caller() -> str:
+    """What a child process of the suite runs for: the test that started it, and its
+    command line."""
+    test = os.environ.get("PYTEST_CURRENT_TEST", "").split(" ")[0]
+    return f"{test} [{' '.join(getattr(sys, 'orig_argv', sys.argv)[1:4])[:80]}]"
+
+
+def install_on_numba_import() -> None:
+    """Register the listener as soon as numba's event module is imported (from a
+    ``sitecustomize``: nothing of numba is imported before it is needed)."""
+    import importlib.abc
+    import importlib.machinery
+
+    class Finder(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path, target=None):
+            if name != "numba.core.event":
+                return None
+            sys.meta_path.remove(self)
+            spec = importlib.machinery.PathFinder.find_spec(name, path)
+            run_module = spec.loader.exec_module
+
+            def exec_module(module):
+                run_module(module)
+                _listener()
+            spec.loader.exec_module = exec_module
+            return spec
+
+    if os.environ.get("SUITE_COMPILE_LOG"):
+        sys.meta_path.insert(0, Finder())
 
 
 def pytest_configure(config):
