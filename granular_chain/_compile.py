@@ -34,6 +34,45 @@ from .notices import COMPILE_NOTICE, CompileNotice, logger, warn
 
 _ENTRIES: dict = {}
 
+
+def callee(**options):
+    """``numba.njit`` for a function that only compiled code calls: cached, and without
+    the CPython and C wrappers numba otherwise generates with every specialisation for
+    calls from Python (numba's own ``@overload`` implementations are compiled so). The
+    wrappers of a callee taking the event stepper's records cost about a tenth of the
+    kernel's compile. Python must not call such a function (it has no entry point:
+    ``tests/test_callees.py`` checks that no Python code does).
+
+    Parameters
+    ----------
+    **options
+        Further ``numba.njit`` options (``error_model``, ``_nrt``, ...).
+
+    Returns
+    -------
+    callable
+        The decorator.
+    """
+    return numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True, **options)
+
+
+def kernel(**options):
+    """``numba.njit`` for a function Python calls (an entry point; compiled code may
+    call it too): cached, and without the C wrapper (for ``cfunc`` and first-class
+    function values, which the engine does not use).
+
+    Parameters
+    ----------
+    **options
+        Further ``numba.njit`` options.
+
+    Returns
+    -------
+    callable
+        The decorator.
+    """
+    return numba.njit(cache=True, no_cfunc_wrapper=True, **options)
+
 #: A folder shared by processes that may compile the same kernels at the same time
 #: (the test suite's workers, a sweep's workers): when set, a process compiling a
 #: specialisation holds a lock on it there, and another asking for it meanwhile

@@ -19,6 +19,7 @@ displacements (see :mod:`granular_chain.model`)::
 
 import numba
 
+from ._compile import kernel
 from .laws.contact import contact_energy, contact_force
 
 
@@ -175,7 +176,7 @@ def potential_energy(law, left_wall, right_wall, u, d0, k, n):
     return e
 
 
-@numba.njit(cache=True)
+@kernel()
 def total_potential(law, left_wall, right_wall, u, d0, k, n):
     """Compiled entry point for :func:`potential_energy` (called at output frames).
 
@@ -201,7 +202,7 @@ def total_potential(law, left_wall, right_wall, u, d0, k, n):
     return potential_energy(law, left_wall, right_wall, u, d0, k, n)
 
 
-@numba.njit(cache=True)
+@kernel()
 def net_forces(law, left_wall, right_wall, u, d0, k, n, c, f):
     """Compiled entry point for :func:`spring_forces` (initial forces, writers).
 

@@ -10,10 +10,9 @@ from __future__ import annotations
 
 from typing import NamedTuple, Optional, Sequence, Union
 
-import numba
 import numpy as np
 
-from ._compile import compile_scope
+from ._compile import compile_scope, kernel
 from .budget import check_budget
 from .errors import SimulationError
 from .frames import Frame, FrameLog
@@ -269,7 +268,7 @@ class NeighbourWatch:
         pass
 
 
-@numba.njit(nogil=True, cache=True)
+@kernel(nogil=True)
 def _neighbour_overlaps(x, reach):
     """(first i, count) of the pairs (i, i+2) whose spheres overlap, x[i+2] - x[i] <
     reach[i] = r_i + r_(i+2); (-1, 0) when none do.

@@ -34,6 +34,8 @@ import math
 
 import numba
 
+from .._compile import kernel
+
 STOPPED = 1
 SLIPPED = 2
 
@@ -152,7 +154,7 @@ def at_rest_by(v, v1, F, eta, inv_m, t):
     return 1 if (v1 == 0.0 and abs(v) <= t * abs(a)) else 0
 
 
-@numba.njit(cache=True)
+@kernel()
 def drift_tables(c, dt, E, P1, P2):
     """Per-granule drag coefficients for a step dt: exp(-c dt), phi1(c, dt), phi2(c, dt).
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import enum
 
-import numba
 import numpy as np
 
+from .._compile import kernel
 from ..codes import Status
 
 __all__ = ["Outcome", "OUTCOMES", "SEPARATION_SIGNS", "outcome_of_signs", "outcome_code",
@@ -74,12 +74,12 @@ _NO_SEPARATION = OUTCOMES.index(Outcome.no_separation)
 _SEPARATED, _T_END, _AT_REST = int(Status.SEPARATED), int(Status.T_END), int(Status.AT_REST)
 
 
-@numba.njit(cache=True)
+@kernel()
 def _sign(v):
     return 1 if v > 0.0 else (-1 if v < 0.0 else 0)
 
 
-@numba.njit(cache=True)
+@kernel()
 def outcome_code(status, v1, v2, rest_tol):
     """Index into :data:`OUTCOMES` of a run that ended with ``status`` (a
     :class:`~granular_chain.codes.Status` value) and velocities ``v1``, ``v2``
@@ -112,7 +112,7 @@ def outcome_code(status, v1, v2, rest_tol):
     return -1
 
 
-@numba.njit(cache=True)
+@kernel()
 def outcome_codes(status, velocities, rest_tol, out):
     """:func:`outcome_code` of M runs: ``status`` (M,), ``velocities`` (M, 2); into ``out`` (M,).
 

@@ -53,9 +53,9 @@ from pathlib import Path
 from typing import Optional
 
 import h5py
-import numba
 import numpy as np
 
+from .._compile import kernel
 from ..conventions import EVENT_FIELDS as _EVENT_FIELDS
 from ..conventions import FRAME_FIELDS, LEDGER_FIELDS
 from ..conventions import GRANULE_FIELDS as _GRANULE_FIELDS
@@ -74,7 +74,7 @@ __all__ = ["TrajectoryWriter", "TrajectoryFrames", "write_trajectory", "FRAME_FI
 _CHUNK_VALUES = 2 ** 16
 _SERIES_ROWS = 512  # frames in one chunk of a (time,) array
 
-@numba.njit(nogil=True, cache=True)
+@kernel(nogil=True)
 def _copy_frame(row, x_rows, v_rows, f_rows, x, v, f):
     """Copy one frame's x, v, f (shape (N,)) into row ``row`` of a block's
     (rows, N) arrays, without the GIL.

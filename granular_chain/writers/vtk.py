@@ -62,7 +62,7 @@ import numba
 import numpy as np
 from tqdm import tqdm
 
-from .._compile import specialised
+from .._compile import kernel, specialised
 from ..extras import require
 from ..laws.contact import LAW_POWER, contact_force
 from ..laws.damping import DAMPING_NONE, damped_contact_force
@@ -126,7 +126,7 @@ class ContactForces(NamedTuple):
     wall_force: np.ndarray
 
 
-@numba.njit(cache=True)
+@kernel()
 def _law_forces(law, overlap, k, n, force):
     """``force[i] = F(overlap[i])`` by the contact law ``law`` of :mod:`..laws.contact`
     (LAW_LINEAR, LAW_HERTZ, LAW_POWER or a registered law's); arrays of shape (M,).
@@ -177,7 +177,7 @@ def dissipation_of(model) -> Optional[Dissipation]:
                        t.wall_motion.copy())
 
 
-@numba.njit(cache=True)
+@kernel()
 def _damped_forces(law, damping, tensile, overlap, rate, k, n, coefficient, force):
     """``force[i]``: spring plus dashpot of contact i (:func:`..laws.damping.damped_contact_force`)
     at overlap ``overlap[i]`` and overlap rate ``rate[i]``; arrays of shape (M,).

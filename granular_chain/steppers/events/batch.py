@@ -16,11 +16,10 @@ import math
 import time
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numba import literally
 
-from ..._compile import compile_scope, specialised
+from ..._compile import compile_scope, kernel, specialised
 from ...codes import EventKind, Pause, Status
 from ...interrupts import StopRequest, stop_signals
 from ...model import LAW_LINEAR, Model
@@ -57,7 +56,7 @@ class PointResults(NamedTuple):
     t_stop: np.ndarray   #: (M, N) time of each granule's first stop event, NaN if none
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@kernel(error_model="numpy", _nrt=False)
 def _extract(p, code, clock, frames, log, out):
     """Store point p's end state (see :class:`PointResults`)."""
     out.code[p] = code
@@ -76,7 +75,7 @@ def _extract(p, code, clock, frames, log, out):
                 out.t_stop[p, i] = log.t[q]
 
 
-@numba.njit(cache=True, error_model="numpy")  # (NRT on: numba's slice copies need it)
+@kernel(error_model="numpy")  # (NRT on: numba's slice copies need it)
 def _run_points(law, coulomb, viscous, rec, flat, template, points, out, start, end):
     """Run the packed scene once per row start <= p < end of ``points``.
 

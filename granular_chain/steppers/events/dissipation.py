@@ -32,6 +32,7 @@ import math
 
 import numba
 
+from ..._compile import callee
 from ...codes import EventKind
 from ...laws.contact import LAW_LINEAR, contact_force
 from ...laws.damping import DAMPING_LINEAR
@@ -55,7 +56,7 @@ def _pulse_on(p2, t, tlo):
     return (p2 - t) - tlo > 4.0 * 2.2e-16 * abs(p2)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def wall_rates(t, tlo, model, state):
     """The walls' velocities at time t + tlo into ``state.wall_rate``.
 
@@ -79,7 +80,7 @@ def wall_rates(t, tlo, model, state):
             state.wall_rate[side] = wall_speed(kind, p1, p2, t + tlo)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def wall_series(P, t, tlo, model, work):
     """Taylor coefficients 1..P+1 of each wall's displacement at time t + tlo
     (coefficient 0 is not needed: overlaps are state variables).
@@ -150,7 +151,7 @@ def non_tensile(model, j):
     return model.damping[j] != 0.0 and model.dashpot[1] == 0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _spring_on(law, tol_v, j, model, state):
     """Whether contact j's spring (and a viscoelastic dashpot) series is computed:
     n = 2 always; other n once the impulse left out, spring ``k d^n/(n |w|)`` plus
@@ -196,7 +197,7 @@ def _overlap_term(model, state, work, j, k):
     return d
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _start_rows(law, tol_v, na, model, state, work):
     """Order 0 of the step's contacts: overlap, spring, which springs are computed
     (``work.force_on``: closed and on, as the elastic path's) and, in ``work.row``
@@ -217,7 +218,7 @@ def _start_rows(law, tol_v, na, model, state, work):
             comp[j] = 2.0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def build_dissipative(law, coulomb, viscous, P, tol_v, nm, na, model, state, work):
     """Taylor coefficients to order P of the moving granules' u, v and of the step's
     contacts' overlaps and forces with dashpots, body forces and moving walls
@@ -288,7 +289,7 @@ def build_dissipative(law, coulomb, viscous, P, tol_v, nm, na, model, state, wor
             U[i, k + 1] = V[i, k] / (k + 1)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _add(work, ncand, kind, index, root):
     work.cand_kind[ncand] = kind
     work.cand_index[ncand] = index
@@ -296,7 +297,7 @@ def _add(work, ncand, kind, index, root):
     return ncand + 1
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _force_root(P, h, sgn, j, work):
     """First root in [0, h] of contact j's total force going the way ``sgn`` says
     (-1: down to zero, +1: up). A total force within ZERO_ULPS of its parts at
@@ -312,7 +313,7 @@ def _force_root(P, h, sgn, j, work):
     return first_root(G[j], P, sgn, 0.0, h)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _switch_on(P, h, tol_v, j, model, state, work):
     """Root of a closed contact whose spring is off reaching the overlap ``don`` at
     which it is switched on, inf when none: the rule of
@@ -331,7 +332,7 @@ def _switch_on(P, h, tol_v, j, model, state, work):
     return math.inf
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def dissipative_candidates(linear, P, h, tol_v, t, tlo, na, model, state, work):
     """Roots of every contact's event functions within [0, h] with dashpots and
     moving walls, and a pulse wall's stop.
@@ -424,7 +425,7 @@ def _product_integral(a, b, P, tau):
     return s * tau
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def dissipative_increment(P, na, model, state, work, tau):
     """(dashpot work, wall work) over [0, tau] of the step.
 
@@ -472,7 +473,7 @@ def dissipative_increment(P, na, model, state, work, tau):
     return wd, ww
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def branch_cap(h, na, model, work):
     """Keep the step within half the distance ``delta / |delta'|`` to the branch point
     at delta = 0 of a switched-on viscoelastic contact (n != 2).

@@ -56,6 +56,7 @@ import math
 import numba
 from numba import literally
 
+from ..._compile import callee, kernel
 from ...codes import EventKind, Pause, Status
 from ...laws.contact import LAW_LINEAR
 from . import modal_n2
@@ -72,7 +73,7 @@ from .series import build_series, horner, increment, ledger_increment, step_size
 ZENO_BATCHES = 200
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@kernel(error_model="numpy", _nrt=False)
 def run_events(law, coulomb, viscous, dissip, settings_array, clock_array, model, state, work,
                frames, log):
     """Advance the event-driven motion until the run ends, a buffer fills or the
@@ -144,7 +145,7 @@ def _buffers_short(clock, state, frames, log):
             or log.t.size - clock.n_events < 2 * N + 4)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _start(law, dissip, settings, clock, model, state, work, frames, log):
     """The first call: settle the initial modes, build the moving set, record the
     first frame; the run may end at once (at rest, or the overdamped jump)."""
@@ -371,7 +372,7 @@ def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, wo
     return GOING, 1, tau_e, ncand
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _frames_in_step(law, coulomb, viscous, dissip, t_new, na, settings, clock, model, state,
                     work, frames):
     """Frames at the output cadence inside the step, up to t_new, from the series.
@@ -445,7 +446,7 @@ def _advance(coulomb, viscous, dissip, P, tau, t_new, t_lo_new, na, clock, model
     return True
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _dissipative_frame(law, tf, P, na, x, dwc, dwv, clock, model, state, work, frames):
     """A frame inside a step (state already at x from the step's start) with the
     dashpot and wall work up to it: the clock's totals are raised for the frame
@@ -463,7 +464,7 @@ def _dissipative_frame(law, tf, P, na, x, dwc, dwv, clock, model, state, work, f
     state.wall_rate[1] = rr
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _apply_roots(law, limit, ncand, model, state, work):
     """Set the event quantities of every candidate with a root <= limit exactly
     (overlap 0, velocity 0, the slip's direction) and mark them for settle."""
@@ -486,7 +487,7 @@ def _apply_roots(law, limit, ncand, model, state, work):
                 work.granule_flag[i] = 2  # settle keeps this root-located slip
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _batch_window(limit, ncand, N, work):
     """The granules settle looks at: around the batch's events (it grows the
     window where a change reaches its edge); empty when no event changes a mode."""
@@ -510,7 +511,7 @@ def _batch_window(limit, ncand, N, work):
     work.window[1] = min(whi, N - 1)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _event_batch(law, dissip, tau_e, ncand, settings, clock, model, state, work, frames, log):
     """The events of a step ending at its earliest root tau_e: roots of different
     event functions at one true instant agree to a few ulps of tau, so all
@@ -552,7 +553,7 @@ def _event_batch(law, dissip, tau_e, ncand, settings, clock, model, state, work,
                         state, frames)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _after_batch(law, dissip, t_new, tau_e, nev_before, opened, settings, clock, model, state,
                  frames):
     """The run's ends after an event batch: Zeno, separation, rest, the event

@@ -44,6 +44,8 @@ C = cos(omega tau), S = sin(omega tau)/omega (D > 0); cosh, sinh/kappa (D < 0);
 import math
 
 import numba
+
+from ..._compile import callee
 import numpy as np
 
 PI_HI = 3.141592653589793
@@ -124,7 +126,7 @@ def two_prod(a, b):
     return p, e
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def setup(p, coulomb, viscous, model, state):
     """Fill the mode record ``p`` of granules 0, 1 and their closed contact 1.
 
@@ -234,7 +236,7 @@ def setup(p, coulomb, viscous, model, state):
     return math.isfinite(dh) and math.isfinite(oh)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _csa(p, th, tl):
     """e^(-c tau/2) C(tau), e^(-c tau/2) S(tau), e^(-c tau) for tau = th + tl."""
     c = p.c
@@ -277,7 +279,7 @@ def slow_rate(K, half_c, kap):
     return K / (half_c + kap)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def state(p, th, tl):
     """delta, w = delta', v0, v1, du0, du1 at tau = th + tl from the mode start.
 
@@ -393,7 +395,7 @@ def state(p, th, tl):
     return delta, w, 0.0, -w, 0.0, -dd
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def g_event2(p, kind, th, tl):
     """Event function and its time derivative (g < 0 on the valid side).
 
@@ -442,7 +444,7 @@ def g_event2(p, kind, th, tl):
     return -p.s1 * v1, -p.s1 * a1
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def g_event(p, kind, th, tl):
     """The event function alone (:func:`g_event2` without the derivative).
 
@@ -465,7 +467,7 @@ def g_event(p, kind, th, tl):
     return g
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _root_in_bracket(p, kind, lo, hi):
     """Root of g on [lo, hi] with g(lo) < 0 <= g(hi), to an ulp, as (th, tl).
 
@@ -503,7 +505,7 @@ def _root_in_bracket(p, kind, lo, hi):
     return th, tl
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _max_of(p, kind, lo, hi):
     """Interior maximum of g on [lo, hi] with g'(lo) > 0 > g'(hi) (bisection on g')."""
     for _ in range(200):
@@ -518,7 +520,7 @@ def _max_of(p, kind, lo, hi):
     return lo
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def sample_step(p):
     """Sampling interval: a quarter of the fastest time scale of the mode.
 
@@ -536,7 +538,7 @@ def sample_step(p):
     return 0.25 / rate
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def slow_sample_step(p):
     """Largest sampling interval: sample_step, or a quarter of the slow time
     scale 1/lambda_slow of an overdamped mode (D <= 0).
@@ -559,7 +561,7 @@ def slow_sample_step(p):
     return max(fast, 0.25 / slow_rate(p.k_rate, 0.5 * p.c, abs(p.om_hi)))
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def overlap_bound(p):
     """Upper bound on delta over the whole mode (inf when there is none).
 
@@ -584,7 +586,7 @@ def overlap_bound(p):
     return p.drive / K + math.sqrt(y0 * y0 + w0 * w0 / K)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def open_root_analytic(p, h):
     """First tau in (0, h] with y(tau) = 0 when b = 0 (delta = y): closed form.
 
@@ -649,7 +651,7 @@ def open_root_analytic(p, h):
     return th, tl
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _acc_roundoff(p):
     """Roundoff bound of a granule's acceleration at the start of the mode:
     1e-12 times the terms that cancel in it (drive, spring, drag, shared force)."""
@@ -660,7 +662,7 @@ def _acc_roundoff(p):
     return 1e-12 * s
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def first_root(p, kind, lo, hi, nsamp):
     """First tau in [lo, hi] where g_event(kind) reaches 0 from below, as (th, tl).
 

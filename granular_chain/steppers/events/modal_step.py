@@ -11,6 +11,7 @@ import math
 
 import numba
 
+from ..._compile import callee
 from ...codes import EventKind, Pause, Status
 from ...laws.contact import LAW_LINEAR, contact_energy
 from ...laws.friction import phi1
@@ -23,7 +24,7 @@ from .roots import CENTRES_MEET
 WINDOW = 3
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def modal_energy(coulomb, model, state, d, v0, v1, du0, du1):
     """Mechanical energy of the pair at overlap d, velocities v0, v1, and the
     Coulomb work of displacements du0, du1 in the current friction modes.
@@ -62,7 +63,7 @@ def modal_energy(coulomb, model, state, d, v0, v1, du0, du1):
     return e, wc
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def try_jump(law, settings, clock, model, state):
     """N = 2, n = 2, viscous only, gamma/m equal: decide from the exact modal
     solution whether the closed contact can ever open; if not, move the state
@@ -165,7 +166,7 @@ def _candidate(work, ncand, kind, index, rh, rl, bh, bl):
     return ncand + 1, bh, bl
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _window_roots(coulomb, p, lo, hi, nsamp, deep, open_root, state, work):
     """First roots in [lo, hi] of the mode's event functions (``nsamp`` samples):
     opening (``open_root`` (th, tl) when known in closed form, else searched),
@@ -200,7 +201,7 @@ def _window_roots(coulomb, p, lo, hi, nsamp, deep, open_root, state, work):
     return bh, bl, ncand
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _first_event(coulomb, p, h, state, work):
     """Search the candidates window by window (WINDOW samples each) and stop at
     the first window holding a root: most modes end within a period, so
@@ -239,7 +240,7 @@ def _first_event(coulomb, p, h, state, work):
     return bh, bl, ncand, h
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _frames_in_mode(coulomb, viscous, t_new, settings, clock, model, state, work, frames):
     """Frames at the output cadence up to t_new, from the mode's closed form.
     Returns Pause.LOG_FULL when the buffers are full (state untouched), else GOING."""
@@ -269,7 +270,7 @@ def _frames_in_mode(coulomb, viscous, t_new, settings, clock, model, state, work
     return GOING
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def modal_step(coulomb, viscous, settings, clock, model, state, work, frames):
     """One step of the exact modal solution from the mode's start (record
     ``work.modal``, filled by :func:`modal_n2.setup`).

@@ -14,6 +14,7 @@ a window around each batch, so steps and events cost O(active), not O(N).
 
 import numba
 
+from ..._compile import callee, kernel
 from ...codes import EventKind
 from ...laws.contact import LAW_LINEAR, contact_energy, contact_force
 from ...laws.damping import damped_contact_force, dashpot_force
@@ -49,7 +50,7 @@ def _rate(state, j):
     return vl - vr
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def spring_force(law, model, state, i, skip):
     """Net contact force on granule i (contact ``skip`` left out; -5: none), plus
     its body force.
@@ -84,7 +85,7 @@ def spring_force(law, model, state, i, skip):
     return f
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def force_rate(law, model, state, j):
     """Time derivative of the force of contact j, k (n - 1) delta^(n-2) w (0 when open).
 
@@ -121,7 +122,7 @@ def force_rate(law, model, state, j):
     return model.stiffness[j] * a * overlap[j] ** (a - 1.0) * w
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def acceleration(law, model, state, i, skip):
     """Acceleration of granule i in its mode (0 when stuck or outside the chain).
 
@@ -157,7 +158,7 @@ def acceleration(law, model, state, i, skip):
     return a / model.mass[i]
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@kernel(error_model="numpy", _nrt=False)
 def initial_friction_modes(model, state):
     """Friction modes at the start.
 
@@ -181,7 +182,7 @@ def initial_friction_modes(model, state):
             slide[i] = 2
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _force_mode(law, j, model, state):
     """Mode of a non-tensile contact of positive overlap: closed while its total force
     (spring + dashpot) pushes; a force within 64 ulps of its parts (a zero just
@@ -196,7 +197,7 @@ def _force_mode(law, j, model, state):
     return 1 if f > 0.0 else 0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _contact_mode(law, j, model, state, work):
     """The mode contact j must have now (1 closed, 0 open)."""
     N = state.v.size
@@ -238,7 +239,7 @@ def _contact_mode(law, j, model, state, work):
     return 1
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _friction_mode(law, i, model, state, work):
     """The friction mode granule i (with Coulomb friction) must have now."""
     v = state.v[i]
@@ -263,7 +264,7 @@ def _friction_mode(law, i, model, state, work):
     return 0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _save_old(state, work, a, b):
     """Save the modes of granules a..b and contacts a..b+1 (clipped)."""
     N = state.slide.size
@@ -273,7 +274,7 @@ def _save_old(state, work, a, b):
         work.old_closed[j] = state.closed[j]
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _settle_window(law, model, state, work):
     """Iterate the modes of the window ``work.window`` to a fixed point.
 
@@ -351,7 +352,7 @@ def log_event(t, kind, index, clock, log):
     log.counts[kind] += 1
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def settle(law, t, settings, clock, model, state, work, log):
     """Re-derive the modes in ``work.window`` from the state at an event batch
     (time t) and log what changed.
@@ -451,7 +452,7 @@ def is_moving(i, state, model):
     return 0
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def update_moving_set(lo, hi, clock, model, state):
     """Add to or remove from the moving set the granules lo..hi whose membership changed.
 
@@ -488,7 +489,7 @@ def update_moving_set(lo, hi, clock, model, state):
     clock.n_moving = nmv
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def all_at_rest(law, clock, model, state):
     """Every granule at rest for good.
 

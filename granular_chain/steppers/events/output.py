@@ -2,12 +2,13 @@
 
 import numba
 
+from ..._compile import callee, kernel
 from ...laws.contact import contact_energy, contact_force
 from ...laws.damping import damped_contact_force
 from .modes import _rate
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous):
     """Append the frame of the current state at time ``t`` to ``frames`` (nothing when
     the last frame recorded is at ``t``: frame times increase strictly).
@@ -84,7 +85,7 @@ def record_frame(law, t, clock, model, state, frames, work_coulomb, work_viscous
     clock.n_frames = k + 1
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@kernel(error_model="numpy", _nrt=False)
 def record_final_frame(law, clock_array, model, state, frames):
     """A frame at the clock's time (driver: an interrupted run's last state); compiled
     for the run's law (its code a compile-time constant, as in the kernel)."""

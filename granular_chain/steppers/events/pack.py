@@ -6,10 +6,9 @@ import dataclasses
 import math
 from typing import NamedTuple, Optional
 
-import numba
 import numpy as np
 
-from ..._compile import specialised
+from ..._compile import kernel, specialised
 from ...laws.contact import law_of_code
 from ...laws.damping import DAMPING_VISCOELASTIC
 from ...model import LAW_LINEAR, Model
@@ -109,7 +108,7 @@ class Packed:
                            *self.records)
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@kernel(error_model="numpy", _nrt=False)
 def linear_step_cap(model):
     """n = 2: largest step, LINEAR_STEP / L with L a bound on the eigenvalues of
     any linear mode.

@@ -15,6 +15,7 @@ import math
 
 import numba
 
+from ..._compile import callee
 from ...codes import EventKind
 from .series import horner_d
 
@@ -26,7 +27,7 @@ CENTRES_MEET = -2
 SAMPLES = 16
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _g(c, P, sgn, shift, deriv, x):
     s, d = horner_d(c, P, x)
     if deriv:
@@ -34,7 +35,7 @@ def _g(c, P, sgn, shift, deriv, x):
     return sgn * s - shift
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def _brent(c, P, sgn, shift, deriv, xa, xb, fa, fb):
     """Brent's root of g on [xa, xb] with fa*fb <= 0 (scipy's brentq, rtol 4 eps)."""
     if fa == 0.0:
@@ -89,7 +90,7 @@ def _brent(c, P, sgn, shift, deriv, xa, xb, fa, fb):
     return xcur
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def first_root(c, P, sgn, shift, h):
     """First tau in [0, h] where g = sgn * poly(c) - shift reaches 0 from below.
 
@@ -183,7 +184,7 @@ def _add(work, ncand, kind, index, root):
     return ncand + 1
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def switch_on_overlap(P, tol_v, w, n, k, Dj):
     """Overlap ``delta_on`` at which a closed contact whose force is off gets it
     back (-1: none), so that the impulse left out stays below tol_v / 10.

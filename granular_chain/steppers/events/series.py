@@ -19,6 +19,7 @@ import math
 
 import numba
 
+from ..._compile import callee
 from ...laws.contact import LAW_LINEAR, contact_force
 
 
@@ -338,7 +339,7 @@ def _grazing_cap(P, h, na, work):
     return h
 
 
-@numba.njit(cache=True, error_model="numpy", _nrt=False)
+@callee(error_model="numpy", _nrt=False)
 def ledger_increment(coulomb, viscous, P, nm, model, state, work, tau):
     """Energy dissipated by Coulomb and viscous friction over [0, tau] of the step,
     as (coulomb, viscous).

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ..._compile import kernel
 from ...codes import EVENT_KINDS, EventKind, Pause
 from ...forces import left_wall_overlap, right_wall_overlap
 from ...laws.friction import coulomb_kick
@@ -30,7 +31,7 @@ STOP = int(EventKind.STOP)
 SLIP = int(EventKind.SLIP)
 
 
-@numba.njit(cache=True)
+@kernel()
 def log_capacity(N, coulomb):
     """Entries an event log needs for one step of a chain of N granules: every
     contact (walls included) may close or open, and with Coulomb friction every
@@ -119,7 +120,7 @@ def closed(d0, ua, ub):
     return 1 if ua - ub > -d0 else 0
 
 
-@numba.njit(cache=True)
+@kernel()
 def sweep_contact_log(d0, u, seen, after, log, fill, step):
     """The sweep's contact events, read off the displacements before (``after`` 0:
     the states into ``seen``) and after the step (1: a log entry where a state
@@ -137,7 +138,7 @@ def sweep_contact_log(d0, u, seen, after, log, fill, step):
     return fill
 
 
-@numba.njit(cache=True)
+@kernel()
 def kick_codes(v, f, eta, eta_s, inv_m, h, codes):
     """Stop/slip codes (bit 1 stop, bit 2 slip) of the half kick
     :func:`.kernel.synchronise` takes, per granule, into ``codes`` (int8, shape

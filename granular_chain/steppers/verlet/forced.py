@@ -73,6 +73,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from ..._compile import kernel
 from ...codes import Pause, Status
 from ...forces import net_contact_force, net_force
 from ...laws.contact import LAW_LINEAR, contact_force
@@ -464,7 +465,7 @@ def overlap_reached(chain, forcing, fstate, n_hard):
     return False
 
 
-@numba.njit(cache=True, nogil=True)
+@kernel(nogil=True)
 def forced_chunk(features, chain, timestep, state, call, forcing, fstate):
     """Advance a scene with dashpots, body forces or driven walls by up to
     ``call.n_steps`` steps, in place (see the module docstring).
@@ -532,7 +533,7 @@ def _touching(predict, j, fstate):
     return fstate.delta[j] > 0.0
 
 
-@numba.njit(cache=True)
+@kernel()
 def forced_start(features, state, forcing, fstate, t):
     """The contact state (into fstate) and net forces (into state.f) of
     (state.u, state.v) at time t.

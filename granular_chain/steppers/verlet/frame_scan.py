@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from ..._compile import kernel
 from ...forces import contact_overlap, left_wall_overlap, potential_energy, right_wall_overlap
 
 __all__ = ["ScanCodes", "FrameArrays", "Scan", "scan_frame", "stash_state", "settle_frame",
@@ -95,7 +96,7 @@ class Scan(NamedTuple):
     potential: float
 
 
-@numba.njit(cache=True)
+@kernel()
 def scan_frame(codes, chain, d0, u, v, f, x0, out, reach):
     """Fill the frame's arrays from the state and check it, in one compiled call.
 
@@ -152,7 +153,7 @@ def scan_frame(codes, chain, d0, u, v, f, x0, out, reach):
     return first, problem, index, overlap, kinetic, potential
 
 
-@numba.njit(cache=True)
+@kernel()
 def stash_state(u, v, f, out):
     """Copy the state into a frame's arrays as it is: the part of a frame the
     stepping thread must make before it steps on (the rest is
@@ -174,7 +175,7 @@ def stash_state(u, v, f, out):
         out.f[i] = f[i]
 
 
-@numba.njit(nogil=True, cache=True)
+@kernel(nogil=True)
 def settle_frame(codes, chain, d0, x0, out):
     """Make a frame of a state :func:`stash_state` copied into ``out``: the first
     non-finite granule and the energies, as :func:`scan_frame` finds them, then

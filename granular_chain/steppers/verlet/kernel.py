@@ -35,6 +35,7 @@ same test in both algorithms). Overlaps and forces come from
 import numba
 import numpy as np
 
+from ..._compile import kernel
 from ...codes import Pause, Status
 from ...forces import (contact_overlap, left_wall_force, left_wall_overlap, net_force,
                        right_wall_force, right_wall_overlap)
@@ -183,7 +184,7 @@ def overlap_reached(features, chain, u, n_hard):
     return False
 
 
-@numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
+@kernel(nogil=True, fastmath=FASTMATH)
 def sweep_chunk(features, chain, timestep, state, call, log):
     """Advance a scene without Coulomb friction by up to ``call.n_steps`` steps, in place.
 
@@ -375,7 +376,7 @@ def contact_pass(features, chain, state, block, buffer, log, fill, step, tally):
     return (n_close, n_open, n_hard), fill
 
 
-@numba.njit(cache=True, nogil=True, fastmath=FASTMATH)
+@kernel(nogil=True, fastmath=FASTMATH)
 def passes_chunk(features, chain, timestep, state, call, log):
     """Advance a scene with Coulomb friction by up to ``call.n_steps`` steps, in place.
 
@@ -477,7 +478,7 @@ def passes_chunk(features, chain, timestep, state, call, log):
     return call.n_steps, CHUNK_DONE
 
 
-@numba.njit(cache=True)
+@kernel()
 def synchronise(v, f, eta, eta_s, inv_m, h, vs):
     """The synchronised velocities of a Coulomb (merged-kick) run: ``vs = v`` kicked by h
     (dt/2) under the frozen forces f, v left as it is.
