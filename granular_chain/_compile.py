@@ -39,7 +39,7 @@ def callee(**options):
     """``numba.njit`` for a function that only compiled code calls: cached, and without
     the CPython and C wrappers numba otherwise generates with every specialisation for
     calls from Python (numba's own ``@overload`` implementations are compiled so). The
-    wrappers of a callee taking the event stepper's records cost about a tenth of the
+    wrappers of a callee taking the event stepper's records cost about a sixth of the
     kernel's compile. Python must not call such a function (it has no entry point:
     ``tests/test_callees.py`` checks that no Python code does).
 

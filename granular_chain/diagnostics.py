@@ -51,7 +51,6 @@ from dataclasses import asdict, dataclass
 from typing import Optional, Sequence
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .result import Result, Status, run_model
 
@@ -477,6 +476,7 @@ def fitted_width(result: Result, frame: int) -> dict:
     dict
         ``length`` L, ``centre`` c, ``v_max`` v_m, ``rms`` residual over v_m.
     """
+    from scipy.optimize import least_squares
     row = np.asarray(result.v[frame], dtype=float)
     j = int(np.argmax(row))
     lo, hi = max(j - 8, 0), min(j + 9, row.size)

@@ -7,8 +7,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "granular_chain"
-#: Decorators of compiled functions, whose bodies are compiled code.
-COMPILED = ("njit", "jit", "callee", "kernel", "overload", "register_jitable", "vectorize")
+#: Decorators of compiled functions, whose bodies are compiled code (the name called).
+COMPILED = {"njit", "jit", "callee", "kernel", "register_jitable", "vectorize", "guvectorize"}
 
 
 def _module(path: Path) -> str:
@@ -17,22 +17,37 @@ def _module(path: Path) -> str:
 
 
 def _compiled(node) -> bool:
-    return any(name in ast.unparse(d) for d in node.decorator_list for name in COMPILED)
+    for decorator in node.decorator_list:
+        target = decorator.func if isinstance(decorator, ast.Call) else decorator
+        if (target.attr if isinstance(target, ast.Attribute)
+                else getattr(target, "id", "")) in COMPILED:
+            return True
+    return False
 
 
 def _callees() -> dict:
-    """module -> names of its functions decorated with ``callee(...)``."""
-    found = {}
+    """module -> names of its functions decorated with ``callee(...)``, and of the
+    callees it imports from another module (re-exported there)."""
+    found, trees = {}, {}
     for path in PACKAGE.rglob("*.py"):
-        tree = ast.parse(path.read_text())
+        trees[path] = tree = ast.parse(path.read_text())
         names = {f.name for f in tree.body if isinstance(f, ast.FunctionDef)
                  and any(ast.unparse(d).startswith("callee(") for d in f.decorator_list)}
         if names:
             found[_module(path)] = names
+    for _ in range(3):  # (re-exports of re-exports)
+        for path, tree in trees.items():
+            for node in tree.body:
+                if isinstance(node, ast.ImportFrom):
+                    source = _absolute(node.level, node.module, path)
+                    names = {a.asname or a.name for a in node.names
+                             if a.name in found.get(source, ())}
+                    if names:
+                        found.setdefault(_module(path), set()).update(names)
     return found
 
 
-def _absolute(module: str, level: int, name: str | None, path: Path) -> str:
+def _absolute(level: int, name: str | None, path: Path) -> str:
     """The absolute module of ``from <level dots><name> import ...`` in ``path``."""
     if level == 0:
         return name or ""
@@ -49,12 +64,15 @@ def _python_uses(path: Path, callees: dict) -> list[str]:
     here = _module(path) if path.is_relative_to(PACKAGE) else ""
     names = {n: (here, n) for n in callees.get(here, ())}  # local name -> (module, name)
     modules = {}  # local name -> module
+    uses = []
+    where = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path.name
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom):
-            source = _absolute(node.module, node.level, node.module, path) \
-                if node.level else node.module or ""
+            source = _absolute(node.level, node.module, path)
             for alias in node.names:
                 local = alias.asname or alias.name
+                if alias.name == "*" and source in callees:
+                    uses.append(f"{where}:{node.lineno} import * from {source}")
                 if alias.name in callees.get(source, ()):
                     names[local] = (source, alias.name)
                 if f"{source}.{alias.name}" in callees:
@@ -65,8 +83,6 @@ def _python_uses(path: Path, callees: dict) -> list[str]:
                     modules[alias.asname or alias.name] = alias.name
     inside = {id(n) for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) and _compiled(f)
               for n in ast.walk(f)}
-    where = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path.name
-    uses = []
     for node in ast.walk(tree):
         if id(node) in inside:
             continue
@@ -101,7 +117,16 @@ def test_the_check_sees_a_python_call(tmp_path):
     probe.write_text("import numba\n"
                      "from granular_chain.steppers.events.modes import settle\n"
                      "from granular_chain.steppers.events import modes\n"
-                     "settle(1)\nmodes.settle(2)\n"
-                     "@numba.njit\ndef f():\n    return settle(3)\n")
-    assert _python_uses(probe, callees) == ["probe.py:4 settle", "probe.py:5 modes.settle"]
+                     "import granular_chain.steppers.events.modes as m\n"
+                     "from granular_chain.steppers.events.modes import *\n"
+                     "settle(1)\nmodes.settle(2)\nm.settle(3)\n"
+                     "@numba.njit\ndef f():\n    return settle(4)\n")
+    assert sorted(_python_uses(probe, callees)) == [
+        "probe.py:5 import * from granular_chain.steppers.events.modes", "probe.py:6 settle",
+        "probe.py:7 modes.settle", "probe.py:8 m.settle"]
+
+
+def test_a_re_exported_callee_is_a_callee():
+    """``events/kernel.py`` imports ``settle`` from ``modes``: from there it is one too."""
+    assert "settle" in _callees()["granular_chain.steppers.events.kernel"]
 

@@ -20,11 +20,13 @@ def _functions():
 
 
 def _compiled(node) -> bool:
-    """Decorated with numba's njit/jit/vectorize (called or not, any alias of numba)."""
+    """Decorated with numba's njit/jit/vectorize (called or not, any alias of numba) or
+    with the package's ``callee``/``kernel`` (``_compile``: njit with its options)."""
     for decorator in node.decorator_list:
         target = decorator.func if isinstance(decorator, ast.Call) else decorator
         name = target.attr if isinstance(target, ast.Attribute) else getattr(target, "id", "")
-        if name in {"njit", "jit", "vectorize", "guvectorize", "generated_jit"}:
+        if name in {"njit", "jit", "vectorize", "guvectorize", "generated_jit", "callee",
+                    "kernel"}:
             return True
     return False
 
@@ -39,6 +41,8 @@ def test_the_rules_see_the_package():
     found = list(_functions())
     assert len(found) > 300
     assert sum(_compiled(f) for _, f in found) > 30
+    assert sum(_compiled(f) and "callee" in ast.unparse(f.decorator_list[0])
+               for _, f in found) > 40
 
 
 def test_no_function_longer_than_120_lines():
@@ -57,6 +61,8 @@ def test_no_compiled_kernel_with_more_than_12_parameters():
     ("def f(a, b):\n    return a\n", 2, False, 2),
     ("@numba.njit(cache=True)\ndef f(*a, b=1, **k):\n    pass\n", 2, True, 3),
     ("@njit\ndef f(a, /, b):\n    pass\n", 2, True, 2),
+    ("@callee(error_model='numpy')\ndef f(a):\n    pass\n", 2, True, 1),
+    ("@kernel()\ndef f(a):\n    pass\n", 2, True, 1),
 ])
 def test_the_rules_measure_what_they_say(source, lines, compiled, parameters):
     f = ast.parse(source).body[0]

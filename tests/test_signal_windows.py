@@ -191,8 +191,8 @@ def _ending(setup: str):
 
 def test_a_signal_as_the_process_ends_exits_at_once_without_a_traceback():
     """SIGINT after the command is done (its output whole): exit 130 at once, one
-    whole output, no traceback (it was a KeyboardInterrupt in the teardown, or the
-    process killed by the signal)."""
+    whole output, no traceback (not a KeyboardInterrupt in the interpreter's teardown,
+    nor the process killed by the signal)."""
     done = _ending("atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), "
                    "time.sleep(60), print('not reached', file=sys.stderr)))")
     assert done.returncode == 130, done.stderr

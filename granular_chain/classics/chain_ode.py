@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 __all__ = ["ChainSolution", "integrate_chain", "integrate_chain_at", "reference_error"]
 
@@ -103,6 +102,7 @@ def integrate_chain(mass, x0, v0, reach, k=1.0, n=2.5, t_end=10.0,
     RuntimeError
         DOP853 failed (its message).
     """
+    from scipy.integrate import solve_ivp
     chain = _Chain(np.asarray(mass, float), np.asarray(reach, float),
                    np.broadcast_to(np.asarray(k, float), len(mass) - 1), float(n),
                    np.broadcast_to(np.asarray(eta, float), len(mass)))

@@ -48,7 +48,6 @@ from functools import lru_cache, partial
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ..simulate import simulate
 from .chain_ode import integrate_chain
@@ -287,6 +286,7 @@ def refine(run, bracket: tuple, sign: float) -> dict:
     dict
         ``eps`` (the optimum), ``evaluations`` (runs Brent took).
     """
+    from scipy.optimize import minimize_scalar
     found = minimize_scalar(lambda e: sign * run(e)["rate"], bounds=bracket,
                             method="bounded", options={"xatol": XATOL})
     return {"eps": float(found.x), "evaluations": int(found.nfev)}

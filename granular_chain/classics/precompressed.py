@@ -49,7 +49,6 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .. import diagnostics as dg
 from ..scene import read_scene_data, scene_from_dict
@@ -202,6 +201,7 @@ def long_wave_speed(rho: float) -> float:
     float
         ``V / c0``.
     """
+    from scipy.optimize import brentq
     def excess(e):  # rho^2 - (4/15)(3 + 2 (1+e)^(5/2) - 5 (1+e)), written without cancellation
         return (4.0 / 15.0) * (2.0 * math.expm1(2.5 * math.log1p(e)) - 5.0 * e) - rho * rho
 

@@ -67,7 +67,10 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        Exit status (see :mod:`granular_chain.cli.exit_codes`).
+        Exit status (see :mod:`granular_chain.cli.exit_codes`). With ``argv`` None
+        (the process's own command) the process ends with it instead, once the command
+        is done (:func:`_exit_now`); argparse's own exits (``--help``, ``--version``,
+        bad usage) end it with SystemExit before the command starts.
     """
     _drop_output_to_closed_pipes()
     try:
@@ -90,11 +93,11 @@ def _exit_now(status: int) -> None:
     """End the process once its command is done: its threads joined, its exit functions
     run, its output flushed, without the interpreter's teardown.
 
-    That teardown (unloading the compiled kernels) takes about a second, more on a
-    loaded machine, and runs with the signals' default actions: a Ctrl-C then killed
-    a process whose result was already published, and a user who asked a command to
-    stop waited for it. A signal that arrives now ends the process at once with
-    128 + its number (its files are whole or cleaned up by now).
+    The teardown (unloading the compiled kernels) takes about a second, more on a
+    loaded machine, and runs with the signals' default actions, under which a Ctrl-C
+    would kill a process whose result is already published and a user who asked a
+    command to stop would wait for it. A signal that arrives here ends the process at
+    once with 128 + its number (its files are whole or cleaned up by now).
     """
     for signum in STOP_SIGNALS:
         signal.signal(signum, _exit_on_signal)
@@ -108,15 +111,19 @@ def _exit_now(status: int) -> None:
 
 def _exit_on_signal(signum, frame) -> None:
     """The handler while the process ends: end it now, with 128 + ``signum``."""
-    _flush_output()
+    try:
+        _flush_output()
+    except Exception:  # (a flush cut into by the signal: "reentrant call")
+        pass
     os._exit(128 + signum)
 
 
 def _flush_output() -> None:
-    """Flush stdout and stderr (either may be closed or a closed pipe)."""
+    """Flush stdout and stderr (either may be None, closed or a closed pipe)."""
     for stream in (sys.stdout, sys.stderr):
         try:
-            stream.flush()
+            if stream is not None:
+                stream.flush()
         except (OSError, ValueError):
             pass
 

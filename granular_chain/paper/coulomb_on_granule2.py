@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 import mpmath
-from scipy import optimize
 
 from .arithmetic import arithmetic_for
 
@@ -272,6 +271,7 @@ def iia_energy_minimum():
         ``(eta_min, E_min/E0)`` = ``(0.473725..., 0.402529...)``; the ratio increases
         on ``(eta_min, 0.669...)``.
     """
+    from scipy import optimize
     def dE(e):
         c = math.sqrt(1 - e * e)
         return -math.pi / SQRT2 * (c - e * e / c) + 2 * (math.pi**2 / 4 - 1) * e

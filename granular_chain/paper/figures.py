@@ -45,7 +45,6 @@ from pathlib import Path
 from typing import Callable, Optional, Sequence
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .. import paper
 from ..codes import Status
@@ -288,6 +287,7 @@ def iib_back_sliding_times(eta: np.ndarray, u0: np.ndarray, v20: np.ndarray):
         First root of ``u`` (separation if granule 1 kept sliding) and first
         positive root of ``v1`` (the dashed curve of Fig. ``timecompare3``).
     """
+    from scipy.optimize import brentq
     t1 = np.full(len(eta), np.nan)
     ts = np.full(len(eta), np.nan)
     for i, (e, u_0, w) in enumerate(zip(eta, u0, v20)):
