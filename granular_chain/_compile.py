@@ -73,6 +73,7 @@ def kernel(**options):
     """
     return numba.njit(cache=True, no_cfunc_wrapper=True, **options)
 
+
 #: A folder shared by processes that may compile the same kernels at the same time
 #: (the test suite's workers, a sweep's workers): when set, a process compiling a
 #: specialisation holds a lock on it there, and another asking for it meanwhile
