@@ -123,12 +123,18 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
 _SCOPE: contextvars.ContextVar = contextvars.ContextVar("granular_chain_compile_scope",
                                                         default=None)
 
+#: The feature sets announced in this process: a later compile for one of them (the
+#: run after :func:`~granular_chain.warmup.prepare_kernels`, a writer's kernel) goes to
+#: the logger only. Python's own once-per-place rule of warnings cannot be relied on for
+#: that: every ``warnings.catch_warnings`` resets it.
+_ANNOUNCED: set = set()
+
 
 @contextlib.contextmanager
 def compile_scope(what: str):
     """Within: the kernels compiled are announced once, as for ``what`` (a run compiles
-    several kernels of one feature set; one notice says so). Nested scopes join the
-    outermost.
+    several kernels of one feature set; one notice says so), and only the first time in
+    the process that ``what`` compiles anything. Nested scopes join the outermost.
 
     Parameters
     ----------
@@ -169,7 +175,8 @@ class _CompileWatch(event.Listener):
             message = f"{COMPILE_NOTICE}: {self.name}"
         elif not scope["said"]:
             scope["said"] = True
-            message = f"{COMPILE_NOTICE}: {scope['what']}"
+            message = "" if scope["what"] in _ANNOUNCED else f"{COMPILE_NOTICE}: {scope['what']}"
+            _ANNOUNCED.add(scope["what"])
         else:
             message = ""
         logger.info("compiling %s", self.name)

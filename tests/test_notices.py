@@ -8,6 +8,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -117,6 +118,24 @@ def test_compile_is_announced_by_warning_and_logger(caplog):
         warnings.simplefilter("error")
         specialised(kernel, (a,), ())  # compiled already: no notice, no record
     assert caplog.records == []
+
+
+def test_a_feature_set_is_announced_once_per_process():
+    """A second scope of the same feature set that compiles again (the run after the
+    two-step warm-up compiling a writer's kernel) logs its compile but gives no second
+    notice, even where ``catch_warnings`` has reset Python's once-per-place rule (as
+    ``prepare_kernels`` does); another feature set is announced."""
+    a = np.ones(3)
+    words = f"verlet stepper: words {time.perf_counter_ns()}"  # new to this process
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        for _ in range(2):
+            with compile_scope(words):
+                specialised(_fresh_kernel(), (a,), ())
+        with compile_scope(words + ", coulomb"):
+            specialised(_fresh_kernel(), (a,), ())
+    notices = [str(w.message) for w in seen if w.category is gc.CompileNotice]
+    assert notices == [f"{COMPILE_NOTICE}: {words}", f"{COMPILE_NOTICE}: {words}, coulomb"]
 
 
 @pytest.mark.slow
