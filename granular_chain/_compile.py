@@ -29,6 +29,7 @@ import numba
 from numba import types
 from numba.core import event
 
+from ._flag_lookups import quick_flag_lookups
 from ._inlining import linear_inlining
 from .notices import COMPILE_NOTICE, CompileNotice, logger, warn
 
@@ -111,7 +112,8 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     if entry is None:
         sig = tuple(_literal_type(a) if i in literal else numba.typeof(a)
                     for i, a in enumerate(args))
-        with _compile_lock(dispatcher, sig), _CompileWatch(dispatcher), linear_inlining():
+        with _compile_lock(dispatcher, sig), _CompileWatch(dispatcher), linear_inlining(), \
+                quick_flag_lookups():
             dispatcher.compile(sig)  # compile, or load from the on-disk cache
         entry = dispatcher.overloads[sig].entry_point
         _ENTRIES[key] = entry

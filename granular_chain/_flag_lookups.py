@@ -1,0 +1,111 @@
+"""Numba's look-ups keyed by compile flags, at the cost of a dictionary look-up.
+
+While numba types a call to an ``@overload`` function (numpy's and math's functions,
+``min``, ``literally``, the engine's ``@overload`` helpers), it looks the
+implementation up in a cache keyed by the call's types and the compile's flags, a
+``numba.core.targetconfig.TargetConfig`` (``_OverloadFunctionTemplate._get_impl``).
+Every compile has flags objects of its own, so the look-up compares the new flags
+with those of earlier compiles, and numba 0.68 makes both steps slow:
+
+- ``TargetConfig.__hash__`` hashes the sorted names of the options (the keys of
+  ``values()``), which are the same for every flags object of a class: it builds the
+  dictionary of every option's value (about forty property reads) to return a
+  constant of the class.
+- ``TargetConfig.__eq__`` builds that dictionary for both sides, even when they are
+  the same object or hold the same explicitly set values.
+
+In the event kernel's compile these took about a tenth of the CPU time. While one of
+the engine's kernels compiles, :func:`quick_flag_lookups` puts in place a hash that
+is that constant, computed once per class, and an equality that answers from identity
+or from the explicitly set values when these decide it, numba's own comparison
+otherwise: the same answers (``tests/test_flag_lookups.py``), so every look-up finds
+the entry it found before and the machine code is the same. If the installed numba's
+methods are not the text this module knows, numba's own are used unchanged.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+import textwrap
+
+from numba.core.targetconfig import TargetConfig
+
+#: Numba's methods as this module knows them: a faster version is used only for these.
+_KNOWN = {
+    "__hash__": ("def __hash__(self):\n"
+                 "    return hash(tuple(sorted(self.values())))\n"),
+    "__eq__": ("def __eq__(self, other):\n"
+               "    if isinstance(other, TargetConfig):\n"
+               "        return self.values() == other.values()\n"
+               "    else:\n"
+               "        return NotImplemented\n"),
+}
+_ORIGINAL = {name: TargetConfig.__dict__[name] for name in _KNOWN}
+
+#: The hash of each TargetConfig class (numba's, a constant of the class).
+_HASHES: dict = {}
+
+
+def _hash(self) -> int:
+    """Numba's hash, ``hash(tuple(sorted(self.values())))``: the sorted option names."""
+    cls = type(self)
+    value = _HASHES.get(cls)
+    if value is None:
+        value = _HASHES[cls] = hash(tuple(sorted(cls.options)))
+    return value
+
+
+def _eq(self, other):
+    """Numba's equality of every option's value, decided without building the
+    dictionaries when the two are one object or of one class with the same values
+    set (each option then reads the same, set or default)."""
+    if self is other:
+        return True
+    if type(self) is type(other) and self._values == other._values:
+        return True
+    return _ORIGINAL["__eq__"](self, other)
+
+
+def _numba_is_known() -> bool:
+    """Whether the installed numba's ``TargetConfig`` methods are the text above."""
+    for name, text in _KNOWN.items():
+        try:
+            source = textwrap.dedent(inspect.getsource(_ORIGINAL[name]))
+        except (OSError, TypeError):
+            return False
+        if source != text:
+            return False
+    return True
+
+
+#: What quick_flag_lookups puts in place: nothing when numba is not the one known.
+_FASTER = {"__hash__": _hash, "__eq__": _eq} if _numba_is_known() else {}
+
+
+def applies() -> bool:
+    """Whether the installed numba's flags are the ones this module speeds up."""
+    return bool(_FASTER)
+
+
+@contextlib.contextmanager
+def quick_flag_lookups():
+    """Compile with the faster flags hash and equality inside the block, numba's own
+    outside it.
+
+    Yields
+    ------
+    None
+        ``TargetConfig`` has this module's ``__hash__`` and ``__eq__`` until the block
+        ends (also on an exception); a block inside another leaves them to the outer.
+    """
+    if not _FASTER or TargetConfig.__dict__["__eq__"] is _eq:
+        yield  # (numba unknown to this module, or already inside such a block)
+        return
+    for name, method in _FASTER.items():
+        setattr(TargetConfig, name, method)
+    try:
+        yield
+    finally:
+        for name, method in _ORIGINAL.items():
+            setattr(TargetConfig, name, method)
