@@ -11,16 +11,16 @@ with those of earlier compiles, and numba 0.68 makes both steps slow:
   ``values()``), which are the same for every flags object of a class: it builds the
   dictionary of every option's value (about forty property reads) to return a
   constant of the class.
-- ``TargetConfig.__eq__`` builds that dictionary for both sides, even when they are
-  the same object or hold the same explicitly set values.
+- ``TargetConfig.__eq__`` builds that dictionary for both sides, although only the
+  options either side has set can differ.
 
 In the event kernel's compile these took about a tenth of the CPU time. While one of
 the engine's kernels compiles, :func:`quick_flag_lookups` puts in place a hash that
-is that constant, computed once per class, and an equality that answers from identity
-or from the explicitly set values when these decide it, numba's own comparison
-otherwise: the same answers (``tests/test_flag_lookups.py``), so every look-up finds
-the entry it found before and the machine code is the same. If the installed numba's
-methods are not the text this module knows, numba's own are used unchanged.
+is that constant, computed once per class, and an equality that compares the options
+either side has set (numba's own for flags of two classes): the same answers
+(``tests/test_flag_lookups.py``), so every look-up finds the entry it found before
+and the machine code is the same. If the installed numba's methods are not the text
+this module knows, numba's own are used unchanged.
 """
 
 from __future__ import annotations
@@ -56,15 +56,29 @@ def _hash(self) -> int:
     return value
 
 
+#: The default of every option of each TargetConfig class.
+_DEFAULTS: dict = {}
+
+
 def _eq(self, other):
-    """Numba's equality of every option's value, decided without building the
-    dictionaries when the two are one object or of one class with the same values
-    set (each option then reads the same, set or default)."""
+    """Numba's equality, ``self.values() == other.values()`` (every option's value, set
+    or default), decided for two flags of one class from the options either has set:
+    every other option reads its default on both sides."""
     if self is other:
         return True
-    if type(self) is type(other) and self._values == other._values:
-        return True
-    return _ORIGINAL["__eq__"](self, other)
+    cls = type(self)
+    if cls is not type(other):
+        return _ORIGINAL["__eq__"](self, other)
+    mine, theirs = self._values, other._values
+    defaults = _DEFAULTS.get(cls)
+    if defaults is None:
+        defaults = _DEFAULTS[cls] = {k: option.default for k, option in cls.options.items()}
+    for name in mine.keys() | theirs.keys():
+        if name in defaults:
+            a, b = mine.get(name, defaults[name]), theirs.get(name, defaults[name])
+            if a is not b and not a == b:  # (a dict's comparison of values)
+                return False
+    return True
 
 
 def _numba_is_known() -> bool:

@@ -29,7 +29,9 @@ def _flags_variety():
     fast_nrt.nrt = True
     wrapperless = Flags()
     wrapperless.no_cpython_wrapper = True
-    return [plain, explicit, nrt, fast, fast_nrt, wrapperless, Flags(copy_from=nrt),
+    slow = Flags()
+    slow.fastmath = False  # (a new object equal to the default one)
+    return [plain, explicit, nrt, fast, fast_nrt, wrapperless, slow, Flags(copy_from=nrt),
             Flags(copy_from=fast_nrt)]
 
 
