@@ -413,13 +413,14 @@ def test_viscoelastic_dashpot_and_coulomb_friction_compose_in_verlet():
 
 
 def test_friction_chain_with_dashpots_agrees_in_both_steppers():
-    """scenarios/chain_friction.yaml (stick and slip along a struck chain) with a
-    linear dashpot in every contact: the event stepper closes its ledger to
+    """scenarios/chain_friction.yaml (stick and slip along a struck chain) with linear
+    contacts and a linear dashpot in each: the event stepper closes its ledger to
     roundoff, and Verlet's positions at t = 20 converge to it as dt^2.
-    (Its viscous friction left out: the kernels are then those of the two-grain
-    tests above.) Measured: 8.8e-6, 2.1e-6, 5.1e-7 at dt = 0.01, 0.005, 0.0025."""
+    (Its viscous friction left out and n = 2: the kernels are then those of the
+    two-grain tests above.) Measured: 1.1e-4, 3.2e-5, 6.9e-6 at dt = 0.01, 0.005,
+    0.0025 (order 2.02)."""
     damping = 'contacts.damping={"model": "linear", "coefficient": 0.2}'
-    common = [damping, "run.t_end=20", "granules.friction.viscous=0"]
+    common = [damping, "run.t_end=20", "granules.friction.viscous=0", "contacts.exponent=2"]
     scene = gc.load_scene(ROOT / "scenarios" / "chain_friction.yaml",
                           overrides=["run.stepper=event", "run.dt=null", *common])
     ev = simulate(scene, progress=False)
@@ -432,4 +433,4 @@ def test_friction_chain_with_dashpots_agrees_in_both_steppers():
                               overrides=[f"run.dt={dt}", *common])
         errs.append(float(np.max(np.abs(simulate(scene, progress=False).x_final - ev.x_final))))
     order = fitted_order(steps, errs)
-    assert errs[-1] < 1e-6 and 1.8 < order < 2.4, (errs, order)
+    assert errs[-1] < 1e-5 and 1.8 < order < 2.4, (errs, order)

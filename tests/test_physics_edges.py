@@ -275,7 +275,7 @@ def test_vtk_contact_forces_add_up_to_the_net_force_damped_and_driven(tmp_path):
     scene = gc.scene_from_dict({
         "name": "driven",
         "granules": {"count": 6, "radius": 1.0, "gap": 0.0, "velocity": {0: 0.3}},
-        "contacts": {"exponent": 2.5, "damping": {"model": "linear", "coefficient": 0.3}},
+        "contacts": {"exponent": 2.5, "damping": {"model": "viscoelastic", "coefficient": 0.3}},
         "walls": {"left": {"gap": 0.0, "exponent": 2.5,
                            "motion": {"sine": {"amplitude": 0.05, "frequency": 0.3}}},
                   "right": {"gap": 0.0, "exponent": 2.5}},
