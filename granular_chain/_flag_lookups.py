@@ -25,11 +25,12 @@ this module knows, numba's own are used unchanged.
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import textwrap
 
 from numba.core.targetconfig import TargetConfig
+
+from ._method_swap import methods_swapped
 
 #: Numba's methods as this module knows them: a faster version is used only for these.
 _KNOWN = {
@@ -102,24 +103,15 @@ def applies() -> bool:
     return bool(_FASTER)
 
 
-@contextlib.contextmanager
 def quick_flag_lookups():
     """Compile with the faster flags hash and equality inside the block, numba's own
     outside it.
 
-    Yields
-    ------
-    None
-        ``TargetConfig`` has this module's ``__hash__`` and ``__eq__`` until the block
-        ends (also on an exception); a block inside another leaves them to the outer.
+    Returns
+    -------
+    context manager
+        Within it ``TargetConfig`` has this module's ``__hash__`` and ``__eq__`` (not
+        when numba is not the one this module knows); a block inside another leaves
+        them to the outer.
     """
-    if not _FASTER or TargetConfig.__dict__["__eq__"] is _eq:
-        yield  # (numba unknown to this module, or already inside such a block)
-        return
-    for name, method in _FASTER.items():
-        setattr(TargetConfig, name, method)
-    try:
-        yield
-    finally:
-        for name, method in _ORIGINAL.items():
-            setattr(TargetConfig, name, method)
+    return methods_swapped(TargetConfig, _FASTER, _ORIGINAL)

@@ -29,11 +29,12 @@ rewrites, numba's own is used unchanged.
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import textwrap
 
 from numba.core import inline_closurecall
+
+from ._method_swap import methods_swapped
 
 _Worker = inline_closurecall.InlineWorker
 
@@ -96,24 +97,14 @@ def applies() -> bool:
     return bool(_FASTER)
 
 
-@contextlib.contextmanager
 def linear_inlining():
     """Compile with the faster inliner inside the block, numba's own outside it.
 
-    Yields
-    ------
-    None
-        Numba's ``InlineWorker`` has this module's ``inline_ir`` and
-        ``inline_function`` until the block ends (also on an exception); a block
-        inside another leaves them to the outer one.
+    Returns
+    -------
+    context manager
+        Within it numba's ``InlineWorker`` has this module's ``inline_ir`` and
+        ``inline_function`` (not when numba is not the one this module rewrites); a
+        block inside another leaves them to the outer one.
     """
-    if not _FASTER or _Worker.inline_ir is _FASTER["inline_ir"]:
-        yield  # (numba unknown to this module, or already inside such a block)
-        return
-    for name, method in _FASTER.items():
-        setattr(_Worker, name, method)
-    try:
-        yield
-    finally:
-        for name, method in _ORIGINAL.items():
-            setattr(_Worker, name, method)
+    return methods_swapped(_Worker, _FASTER, _ORIGINAL)
