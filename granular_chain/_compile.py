@@ -75,6 +75,25 @@ def kernel(**options):
     return numba.njit(cache=True, no_cfunc_wrapper=True, **options)
 
 
+@numba.njit(inline="always", cache=True)
+def run_time(code):
+    """A literal feature code as a plain integer: a callee given it is compiled once
+    for all its values and branches on it as it runs. For code that works only at
+    output times, where a compile per value buys no speed.
+
+    Parameters
+    ----------
+    code : int
+        A compile-time feature code (``numba.literally``).
+
+    Returns
+    -------
+    int
+        The same value, typed int64.
+    """
+    return code + 0
+
+
 #: A folder shared by processes that may compile the same kernels at the same time
 #: (the test suite's workers, a sweep's workers): when set, a process compiling a
 #: specialisation holds a lock on it there, and another asking for it meanwhile

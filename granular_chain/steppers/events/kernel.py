@@ -56,7 +56,7 @@ import math
 import numba
 from numba import literally
 
-from ..._compile import callee, kernel
+from ..._compile import callee, kernel, run_time
 from ...codes import EventKind, Pause, Status
 from ...laws.contact import LAW_LINEAR
 from . import modal_n2
@@ -355,8 +355,9 @@ def taylor_step(law, coulomb, viscous, dissip, settings, clock, model, state, wo
         t_new = t_end
         t_lo_new = 0.0
     if settings.frame_interval > 0.0:
-        code = _frames_in_step(law, coulomb, viscous, dissip, t_new, na, settings, clock, model,
-                               state, work, frames)
+        # (the friction codes at run time: frames are made at output times only)
+        code = _frames_in_step(law, run_time(coulomb), run_time(viscous), dissip, t_new, na,
+                               settings, clock, model, state, work, frames)
         if code != GOING:
             return code, 0, 0.0, 0
     if not _advance(coulomb, viscous, dissip, P, tau, t_new, t_lo_new, na, clock, model, state,

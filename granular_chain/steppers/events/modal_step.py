@@ -11,7 +11,7 @@ import math
 
 import numba
 
-from ..._compile import callee
+from ..._compile import callee, run_time
 from ...codes import EventKind, Pause, Status
 from ...laws.contact import LAW_LINEAR, contact_energy
 from ...laws.friction import phi1
@@ -32,7 +32,8 @@ def modal_energy(coulomb, model, state, d, v0, v1, du0, du1):
     Parameters
     ----------
     coulomb : int
-        Compile-time feature code: nonzero when some granule has Coulomb friction.
+        Feature code: nonzero when some granule has Coulomb friction (a literal in
+        the step, a run-time value where frames are made).
     model : ChainArrays
         The two-granule chain's constants (N = 2), kernel units.
     state : MotionState
@@ -327,8 +328,9 @@ def modal_step(coulomb, viscous, settings, clock, model, state, work, frames):
         t_new = t_end
         t_lo_new = 0.0
     if settings.frame_interval > 0.0:
-        code = _frames_in_mode(coulomb, viscous, t_new, settings, clock, model, state,
-                               work, frames)
+        # (the friction codes at run time: frames are made at output times only)
+        code = _frames_in_mode(run_time(coulomb), run_time(viscous), t_new, settings, clock,
+                               model, state, work, frames)
         if code != GOING:
             return code, 0, 0.0, 0
     e0, _ = modal_energy(coulomb, model, state, overlap[1], v[0], v[1], 0.0, 0.0)

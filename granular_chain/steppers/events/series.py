@@ -353,9 +353,10 @@ def ledger_increment(coulomb, viscous, P, nm, model, state, work, tau):
     Parameters
     ----------
     coulomb : int
-        Compile-time feature code: nonzero when some granule has Coulomb friction.
+        Feature code: nonzero when some granule has Coulomb friction (a literal in
+        the step, a run-time value where frames are made).
     viscous : int
-        Compile-time feature code: nonzero when some granule has viscous friction.
+        Feature code: nonzero when some granule has viscous friction (the same).
     P : int
         Taylor order; series arrays have P + 1 columns.
     nm : int
