@@ -155,7 +155,8 @@ _ANNOUNCED: set = set()
 def compile_scope(what: str):
     """Within: the kernels compiled are announced once, as for ``what`` (a run compiles
     several kernels of one feature set; one notice says so), and only the first time in
-    the process that ``what`` compiles anything. Nested scopes join the outermost.
+    the process that ``what`` compiles anything (also when a warnings filter hid that
+    notice, as ``prepare_kernels(quiet=True)`` does). Nested scopes join the outermost.
 
     Parameters
     ----------

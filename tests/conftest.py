@@ -25,19 +25,18 @@ if "PYTEST_XDIST_WORKER" not in os.environ and LOCK_DIR_ENV not in os.environ:
     atexit.register(shutil.rmtree, _locks, True)
 
 
+@pytest.hookimpl(optionalhook=True)
 def pytest_xdist_auto_num_workers(config):
-    """``-n auto``: one test process more than the machine has cores. A worker often
-    waits without computing, for a kernel another is compiling (the compile locks
-    above) or for a child process it signals; on two cores, with two workers, the cold
-    suite kept the cores busy 182 % of the time, with three 196 %. An explicit ``-n N``
-    or ``PYTEST_XDIST_AUTO_NUM_WORKERS`` is taken as given."""
-    if config.option.numprocesses != "auto" or os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+    """``-n auto`` (or ``logical``): one test process more than pytest-xdist's own count
+    of cores. A worker often waits without computing, for a kernel another is compiling
+    (the compile locks above) or for a child process it signals; on two cores, with two
+    workers, the cold suite kept the cores busy 182 % of the time, with three 196 %. An
+    explicit ``-n N`` or ``PYTEST_XDIST_AUTO_NUM_WORKERS`` is taken as given."""
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
         return None
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # (not Linux)
-        cores = os.cpu_count() or 1
-    return cores + 1
+    from xdist.plugin import pytest_xdist_auto_num_workers as cores
+
+    return cores(config) + 1
 
 
 # A child process that never ends is a bug to be shown, not waited for: with Python's

@@ -100,12 +100,13 @@ def test_compile_is_announced_by_warning_and_logger(caplog):
     set), every kernel on the ``granular_chain`` logger; a cached one says nothing."""
     caplog.set_level(logging.INFO, logger="granular_chain")
     a = np.ones(3)
+    words = f"verlet stepper: feature words {time.perf_counter_ns()}"  # new to the process
     with pytest.warns(gc.CompileNotice) as record:
-        with compile_scope("verlet stepper: feature words"):
+        with compile_scope(words):
             specialised(_fresh_kernel(), (a,), ())
             specialised(_fresh_kernel(), (a,), ())
     notices = [str(w.message) for w in record if w.category is gc.CompileNotice]
-    assert notices == [f"{COMPILE_NOTICE}: verlet stepper: feature words"]
+    assert notices == [f"{COMPILE_NOTICE}: {words}"]
     said = [r.getMessage() for r in caplog.records if r.name == "granular_chain"]
     assert [s.split(" in ")[0] for s in said] == ["compiling doubled", "compiled doubled"] * 2
     with pytest.warns(gc.CompileNotice, match=f"^{re.escape(COMPILE_NOTICE)}: doubled$"):
@@ -120,11 +121,12 @@ def test_compile_is_announced_by_warning_and_logger(caplog):
     assert caplog.records == []
 
 
-def test_a_feature_set_is_announced_once_per_process():
+def test_a_feature_set_is_announced_once_per_process(caplog):
     """A second scope of the same feature set that compiles again (the run after the
     two-step warm-up compiling a writer's kernel) logs its compile but gives no second
     notice, even where ``catch_warnings`` has reset Python's once-per-place rule (as
     ``prepare_kernels`` does); another feature set is announced."""
+    caplog.set_level(logging.INFO, logger="granular_chain")
     a = np.ones(3)
     words = f"verlet stepper: words {time.perf_counter_ns()}"  # new to this process
     with warnings.catch_warnings(record=True) as seen:
@@ -136,6 +138,8 @@ def test_a_feature_set_is_announced_once_per_process():
             specialised(_fresh_kernel(), (a,), ())
     notices = [str(w.message) for w in seen if w.category is gc.CompileNotice]
     assert notices == [f"{COMPILE_NOTICE}: {words}", f"{COMPILE_NOTICE}: {words}, coulomb"]
+    said = [r.getMessage() for r in caplog.records if r.name == "granular_chain"]
+    assert [s.split(" in ")[0] for s in said] == ["compiling doubled", "compiled doubled"] * 3
 
 
 @pytest.mark.slow

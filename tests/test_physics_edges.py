@@ -265,9 +265,11 @@ def test_verlet_near_one_gives_the_exact_outcome_at_its_default_step():
 
 # --- VTK per-contact forces ---------------------------------------------------
 
-def test_vtk_contact_forces_add_up_to_the_net_force_damped_and_driven(tmp_path):
-    """Dashpots and a sine-driven wall, under gravity: on every granule of every
-    frame, force_(i-1) - force_i (walls at the ends) == net_force - body force."""
+@pytest.mark.parametrize("n, model", [(2.0, "linear"), (2.5, "viscoelastic")])
+def test_vtk_contact_forces_add_up_to_the_net_force_damped_and_driven(tmp_path, n, model):
+    """Dashpots (linear at n = 2, whose force jumps as a contact closes; viscoelastic at
+    n = 5/2) and a sine-driven wall, under gravity: on every granule of every frame,
+    force_(i-1) - force_i (walls at the ends) == net_force - body force."""
     import pyvista as pv
 
     from granular_chain.writers.vtk import write_vtk
@@ -275,10 +277,10 @@ def test_vtk_contact_forces_add_up_to_the_net_force_damped_and_driven(tmp_path):
     scene = gc.scene_from_dict({
         "name": "driven",
         "granules": {"count": 6, "radius": 1.0, "gap": 0.0, "velocity": {0: 0.3}},
-        "contacts": {"exponent": 2.5, "damping": {"model": "viscoelastic", "coefficient": 0.3}},
-        "walls": {"left": {"gap": 0.0, "exponent": 2.5,
+        "contacts": {"exponent": n, "damping": {"model": model, "coefficient": 0.3}},
+        "walls": {"left": {"gap": 0.0, "exponent": n,
                            "motion": {"sine": {"amplitude": 0.05, "frequency": 0.3}}},
-                  "right": {"gap": 0.0, "exponent": 2.5}},
+                  "right": {"gap": 0.0, "exponent": n}},
         "body_force": {"g": 0.01, "direction": -1},
         "run": {"t_end": 12.0}, "output": {"dt": 0.5}})
     r = gc.simulate(scene, progress=False)
