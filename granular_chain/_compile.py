@@ -139,8 +139,8 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     return entry
 
 
-#: The notice scope of the code running (:func:`compile_scope`): what is being run, and
-#: whether the notice was given.
+#: The notice scope of the code running (:func:`compile_scope`): the feature set being
+#: run, in words.
 _SCOPE: contextvars.ContextVar = contextvars.ContextVar("granular_chain_compile_scope",
                                                         default=None)
 
@@ -170,7 +170,7 @@ def compile_scope(what: str):
     if _SCOPE.get() is not None:
         yield
         return
-    token = _SCOPE.set({"what": what, "said": False})
+    token = _SCOPE.set(what)
     try:
         yield
     finally:
@@ -192,13 +192,12 @@ class _CompileWatch(event.Listener):
         if self.start is not None:
             return  # the kernel's callees compile inside it: one notice
         self.start = time.perf_counter()
-        scope = _SCOPE.get()
-        if scope is None:
+        what = _SCOPE.get()
+        if what is None:
             message = f"{COMPILE_NOTICE}: {self.name}"
-        elif not scope["said"]:
-            scope["said"] = True
-            message = "" if scope["what"] in _ANNOUNCED else f"{COMPILE_NOTICE}: {scope['what']}"
-            _ANNOUNCED.add(scope["what"])
+        elif what not in _ANNOUNCED:
+            _ANNOUNCED.add(what)
+            message = f"{COMPILE_NOTICE}: {what}"
         else:
             message = ""
         logger.info("compiling %s", self.name)
