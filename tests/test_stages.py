@@ -20,6 +20,8 @@ from granular_chain import Status, scene_from_dict, simulate
 from granular_chain.cli.main import main
 from granular_chain.scene import read_scene_data
 
+from conftest import patch_everywhere
+
 SCENE = Path(__file__).resolve().parents[1] / "scenarios" / "settle_strike.yaml"
 STRIKE = -0.3  # the strike stage's velocity of granule 7
 
@@ -191,20 +193,23 @@ class _InterruptAt:
 
 def test_a_signal_in_the_second_stage_ends_the_run_there(monkeypatch):
     # The writer raises the signal on the stepping thread (writers inline, no thread of
-    # their own): a writers' thread may reach the frame only after the short stage has
-    # ended on a loaded machine, and then no stop is left to see.
-    import importlib
-
+    # their own): a writers' thread may reach the frame only after the last stage has
+    # ended on a loaded machine, when the run's signal handlers are gone (the signal
+    # then ends the test process). The staged run makes its log in granular_chain.stages:
+    # every module's binding is replaced.
     from granular_chain.frames import FrameLog
+
+    made = []
 
     class InlineLog(FrameLog):
         def __init__(self, writers=(), keep=True, background=False):
             super().__init__(writers, keep=keep, background=False)
+            made.append(self.background)  # (read as it is made: finish ends the thread)
 
-    monkeypatch.setattr(importlib.import_module("granular_chain.simulate"), "FrameLog",
-                        InlineLog)
+    patch_everywhere(monkeypatch, "frames", "FrameLog", InlineLog)
     scene = scene_from_dict(_data(), str(SCENE))
     r = simulate(scene, progress=False, writers=[_InterruptAt(402.0)], keep_frames=False)
+    assert made and not any(made)
     assert r.status == Status.INTERRUPTED
     assert 402.0 < r.t_final < 460.0 and r.t[-1] == r.t_final
     stages = r.info["stages"]
