@@ -31,6 +31,7 @@ from numba.core import event
 
 from ._flag_lookups import quick_flag_lookups
 from ._inlining import linear_inlining
+from ._literal_folding import FeatureCompiler
 from .notices import COMPILE_NOTICE, CompileNotice, logger, warn
 
 _ENTRIES: dict = {}
@@ -54,7 +55,8 @@ def callee(**options):
     callable
         The decorator.
     """
-    return numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True, **options)
+    return numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True,
+                      pipeline_class=FeatureCompiler, **options)
 
 
 def kernel(**options):
@@ -72,7 +74,8 @@ def kernel(**options):
     callable
         The decorator.
     """
-    return numba.njit(cache=True, no_cfunc_wrapper=True, **options)
+    return numba.njit(cache=True, no_cfunc_wrapper=True, pipeline_class=FeatureCompiler,
+                      **options)
 
 
 @numba.njit(inline="always", cache=True)

@@ -17,8 +17,8 @@ STAGES = [
     # what every stage may use: errors, codes, warnings, signals, compiling, the laws,
     # units, the CF names of stored variables, run folders
     {"version", "errors", "codes", "notices", "extras", "interrupts", "_compile", "_inlining",
-     "_method_swap", "_flag_lookups", "plotting", "progress", "distributions", "initial_state",
-     "checkpoint", "conventions", "laws", "units", "rundir"},
+     "_method_swap", "_flag_lookups", "_literal_folding", "_alias_analysis", "plotting",
+     "progress", "distributions", "initial_state", "checkpoint", "conventions", "laws", "units", "rundir"},
     {"scene", "forces"},                          # the scene; the neighbour loop of the laws
     {"model", "contact_table", "restitution"},    # scene -> arrays and constants
     {"result", "dataset", "frames", "ledger"},    # what a run gives, frame by frame
