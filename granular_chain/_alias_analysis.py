@@ -5,22 +5,23 @@ Before it lowers a function numba removes statements it takes for dead
 afterwards, unless that array may be an argument or part of one: its alias analysis
 (``ir_utils.find_potential_aliases``) collects the variables that may hold an
 argument's memory. It does so in one sweep over the blocks in the order they are
-stored, and two of its rules look only at what the sweep has seen so far: ``a = b``
-makes ``a`` an argument's alias only if ``b`` is one already, and so does ``a = b.c``
-(an array field of a record). Where the block that binds ``b`` comes later in that
-order than the block that reads ``b.c``, the field is not taken for the argument's,
-and every write into it is removed as dead. The order is an accident of inlining: in
-the Verlet kernel with the event log, cutting an absent feature's branch before
-inlining (:mod:`._literal_folding`) put the inlined ``log_kicks``' binding of the log
-after its writes, and the log lost every stop and slip (``tests/test_verlet_events.py``
-caught it; the LLVM IR held no store of their kinds).
+stored, and each of its rules (``a = b``, ``a = b[i]``, ``a = b.c`` for an array field
+of a record, ``a = b.ravel()``, ...) makes ``a`` an argument's alias only if the sweep
+has already found ``b`` to be one. Where the block that binds ``b`` is stored after the
+block that reads ``b.c``, the field is not taken for the argument's, and every write
+into it is removed as dead. The order is an accident of inlining: in the Verlet kernel
+with the event log, cutting an absent feature's branch before inlining
+(:mod:`._literal_folding`) stores the inlined ``log_kicks``' binding of the log after
+its writes, and numba's sweep alone removes every stop and slip it logs (the LLVM IR
+holds no store of their kinds; ``tests/test_verlet_events.py`` counts them).
 
 :func:`complete_aliases` repeats numba's sweep, each time from the argument aliases the
-last one found, until the set stops growing: every variable that may hold an
-argument's memory is then found, whatever the order of the blocks. It only ever finds
-more aliases, so it only ever keeps more statements. In force while the engine's
-pipeline compiles (:class:`._literal_folding.FeatureCompiler`); if the installed numba's
-function does not take the arguments this calls it with, numba's own is used.
+last one found, until the set stops growing: every variable numba's rules tie to an
+argument is then found, whatever the order of the blocks. It only ever finds more
+argument aliases, so it only ever keeps more statements; aliases among local arrays
+are numba's, unchanged. In force while the engine's pipeline compiles
+(:class:`._literal_folding.FeatureCompiler`); if the installed numba's function does not
+take the arguments this calls it with, numba's own is used.
 """
 
 from __future__ import annotations

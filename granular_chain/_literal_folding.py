@@ -3,15 +3,15 @@ absent features are cut before they are typed, lowered and optimised.
 
 A kernel receives its feature codes as literal integer arguments (``law``, ``coulomb``)
 or as the literal fields of a named tuple (``features.coulomb``). numba's pruning of dead
-branches before type inference (``dead_branch_prune``) reads a literal only from a
-comparison with the kernel's own argument (``law == 0``): not a field of a named tuple,
-not a plain truth test (``if coulomb:``), not an argument passed on into an inlined
-callee. Those branches were typed and lowered in every specialisation and left for LLVM
-to delete. :class:`FeatureCompiler` first rewrites every read of a literal code (an
-attribute of a literal named-tuple argument, a copy of a literal argument, numba's
-``literally`` of one) into the constant it is, then lets numba prune as before: numba's
-own pruning does the cutting, on constants it reads. The code kept is the code a
-specialisation would run; the rest was dead and LLVM removed it anyway.
+branches before type inference (``dead_branch_prune``) reads constants and globals, and
+an argument only where it is compared with None: a literal argument (``if coulomb:``,
+``law == 0``), a field of a literal named tuple and a code passed on into an inlined
+callee are, to it, values known only at run time, so it types and lowers their dead
+branches in every specialisation and leaves them for LLVM to delete.
+:class:`FeatureCompiler` first rewrites every read of a literal code (the binding of a
+literal integer argument, a field of a literal named-tuple argument, a copy of either,
+numba's ``literally`` of one) into the constant it is; numba's own pruning then cuts
+the branches. What is cut is code the specialisation can never run.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def _literal_code(func_ir, args, value, depth=0):
         The function being compiled.
     args : tuple of numba types
         Its argument types.
-    value : ir.Var or ir.Expr or ir.Arg
+    value : ir.Var or ir.Expr or ir.Arg or ir.Const
         What is read.
     depth : int
         Calls of ``literally`` followed so far (a guard against a cycle).
@@ -59,6 +59,8 @@ def _literal_code(func_ir, args, value, depth=0):
         value = _definition(func_ir, value)
     if isinstance(value, ir.Arg):
         return _integer(args[value.index])
+    if isinstance(value, ir.Const):
+        return value.value if type(value.value) is int else None  # (a code folded before)
     if not isinstance(value, ir.Expr) or depth > 8:
         return None
     if value.op == "getattr":
@@ -75,11 +77,12 @@ def _literal_code(func_ir, args, value, depth=0):
 
 
 def _global_value(func_ir, var):
-    """The object a global (or a module's attribute: ``numba.literally``) names, else None."""
+    """The object a global names, or ``numba.literally`` read as a module's attribute;
+    else None."""
     found = _definition(func_ir, var)
     if isinstance(found, (ir.Global, ir.FreeVar)):
         return found.value
-    if isinstance(found, ir.Expr) and found.op == "getattr":
+    if isinstance(found, ir.Expr) and found.op == "getattr" and found.attr == "literally":
         module = _definition(func_ir, found.value)
         if isinstance(module, (ir.Global, ir.FreeVar)):
             return getattr(module.value, found.attr, None)
@@ -94,7 +97,8 @@ def _integer(typ):
 
 
 def fold_literal_codes(func_ir, args) -> int:
-    """Rewrite every assignment whose value is a literal feature code into that constant.
+    """Rewrite every assignment whose value is a literal feature code into that constant
+    (the binding of a literal argument too: the specialisation is compiled for that value).
 
     Parameters
     ----------
@@ -111,7 +115,8 @@ def fold_literal_codes(func_ir, args) -> int:
     rewritten = 0
     for block in func_ir.blocks.values():
         for stmt in block.body:
-            if not isinstance(stmt, ir.Assign) or not isinstance(stmt.value, (ir.Var, ir.Expr)):
+            if not isinstance(stmt, ir.Assign) or \
+                    not isinstance(stmt.value, (ir.Var, ir.Expr, ir.Arg)):
                 continue
             code = _literal_code(func_ir, args, stmt.value)
             if code is not None:
@@ -135,11 +140,12 @@ class FoldCodesThenPrune(DeadBranchPrune):
 
 
 class FeatureCompiler(CompilerBase):
-    """numba's nopython pipeline with :class:`FoldCodesThenPrune` in place of each of its
-    dead-branch pruning passes (``numba.njit(pipeline_class=FeatureCompiler)``), run with
-    numba's alias analysis taken to its fixed point (:mod:`._alias_analysis`): the
-    pruning changes where inlined code lands, and numba's one-sweep analysis then
-    missed an argument's array and removed the writes into it."""
+    """numba's nopython pipeline with :class:`FoldCodesThenPrune` in place of each of the
+    three dead-branch pruning passes it lists (``numba.njit(pipeline_class=FeatureCompiler)``;
+    the one inside numba's literal propagation runs only with ``literal_unroll``, which
+    the engine does not use), run with numba's alias analysis taken to its fixed point
+    (:mod:`._alias_analysis`): the pruning changes where inlined code lands, and numba's
+    one-sweep analysis depends on that order."""
 
     def define_pipelines(self):
         """The pipeline (one: nopython mode).

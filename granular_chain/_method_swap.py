@@ -1,5 +1,5 @@
-"""Methods of a class replaced for the duration of a block (the engine's faster
-versions of a few numba methods, in force only while one of its kernels compiles)."""
+"""Methods of a class, or functions of a module, replaced for the duration of a block
+(the engine's versions of a few of numba's, in force only while its kernels compile)."""
 
 from __future__ import annotations
 
@@ -7,14 +7,14 @@ import contextlib
 
 
 @contextlib.contextmanager
-def methods_swapped(owner: type, faster: dict, original: dict):
+def methods_swapped(owner, faster: dict, original: dict):
     """Within the block ``owner`` has the methods ``faster``; after it (also after an
     exception) those of ``original``.
 
     Parameters
     ----------
-    owner : type
-        The class whose methods are replaced.
+    owner : type or module
+        The class whose methods, or the module whose functions, are replaced.
     faster : dict
         Method name -> function to put in place; empty: nothing is replaced.
     original : dict
