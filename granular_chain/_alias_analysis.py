@@ -80,12 +80,12 @@ def _takes_what_we_pass() -> bool:
     return names == _SIGNATURE
 
 
-_FASTER = {"find_potential_aliases": aliases_to_fixed_point} if _takes_what_we_pass() else {}
+_COMPLETE = {"find_potential_aliases": aliases_to_fixed_point} if _takes_what_we_pass() else {}
 
 
 def applies() -> bool:
     """Whether the installed numba's alias analysis is the one this module repeats."""
-    return bool(_FASTER)
+    return bool(_COMPLETE)
 
 
 def complete_aliases():
@@ -98,4 +98,4 @@ def complete_aliases():
         inside it (not when numba's does not take the arguments it passes); a block
         inside another leaves it to the outer one.
     """
-    return methods_swapped(ir_utils, _FASTER, _ORIGINAL)
+    return methods_swapped(ir_utils, _COMPLETE, _ORIGINAL)

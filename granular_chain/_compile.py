@@ -29,8 +29,6 @@ import numba
 from numba import types
 from numba.core import event
 
-from ._flag_lookups import quick_flag_lookups
-from ._inlining import linear_inlining
 from ._literal_folding import FeatureCompiler
 from .notices import COMPILE_NOTICE, CompileNotice, logger, warn
 
@@ -134,8 +132,7 @@ def specialised(dispatcher, args: tuple, literal: tuple[int, ...]):
     if entry is None:
         sig = tuple(_literal_type(a) if i in literal else numba.typeof(a)
                     for i, a in enumerate(args))
-        with _compile_lock(dispatcher, sig), _CompileWatch(dispatcher), linear_inlining(), \
-                quick_flag_lookups():
+        with _compile_lock(dispatcher, sig), _CompileWatch(dispatcher):
             dispatcher.compile(sig)  # compile, or load from the on-disk cache
         entry = dispatcher.overloads[sig].entry_point
         _ENTRIES[key] = entry

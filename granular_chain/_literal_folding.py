@@ -16,6 +16,8 @@ the branches. What is cut is code the specialisation can never run.
 
 from __future__ import annotations
 
+import contextlib
+
 import numba
 from numba.core import ir, types
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
@@ -24,6 +26,8 @@ from numba.core.ir_utils import build_definitions
 from numba.core.untyped_passes import DeadBranchPrune
 
 from ._alias_analysis import complete_aliases
+from ._flag_lookups import quick_flag_lookups
+from ._inlining import linear_inlining
 
 __all__ = ["FeatureCompiler"]
 
@@ -139,13 +143,24 @@ class FoldCodesThenPrune(DeadBranchPrune):
         return super().run_pass(state)
 
 
+@contextlib.contextmanager
+def _engine_numba():
+    """Within: numba's inliner, compile-flags look-ups and alias analysis as the engine
+    compiles with them (:mod:`._inlining`, :mod:`._flag_lookups`, :mod:`._alias_analysis`);
+    a compile nested in another leaves them to the outer one."""
+    with linear_inlining(), quick_flag_lookups(), complete_aliases():
+        yield
+
+
 class FeatureCompiler(CompilerBase):
-    """numba's nopython pipeline with :class:`FoldCodesThenPrune` in place of each of the
-    three dead-branch pruning passes it lists (``numba.njit(pipeline_class=FeatureCompiler)``;
-    the one inside numba's literal propagation runs only with ``literal_unroll``, which
-    the engine does not use), run with numba's alias analysis taken to its fixed point
-    (:mod:`._alias_analysis`): the pruning changes where inlined code lands, and numba's
-    one-sweep analysis depends on that order."""
+    """The engine's compiler: numba's nopython pipeline with :class:`FoldCodesThenPrune`
+    in place of each of the three dead-branch pruning passes it lists
+    (``numba.njit(pipeline_class=FeatureCompiler)``; the one inside numba's literal
+    propagation runs only with ``literal_unroll``, which the engine does not use), run
+    with numba's inliner and flags look-ups made linear and cheap and its alias analysis
+    taken to its fixed point (the pruning changes where inlined code lands, and numba's
+    one-sweep analysis depends on that order): every compile of a callee or kernel,
+    however it is reached."""
 
     def define_pipelines(self):
         """The pipeline (one: nopython mode).
@@ -160,7 +175,7 @@ class FeatureCompiler(CompilerBase):
         return [pm]
 
     def compile_extra(self, func):
-        """numba's, with the complete alias analysis (see the class).
+        """numba's, with the engine's numba adjustments (see the class).
 
         Parameters
         ----------
@@ -171,11 +186,11 @@ class FeatureCompiler(CompilerBase):
         -------
         numba.core.compiler.CompileResult
         """
-        with complete_aliases():
+        with _engine_numba():
             return super().compile_extra(func)
 
     def compile_ir(self, func_ir, lifted=(), lifted_from=None):
-        """numba's, with the complete alias analysis (see the class).
+        """numba's, with the engine's numba adjustments (see the class).
 
         Parameters
         ----------
@@ -188,5 +203,5 @@ class FeatureCompiler(CompilerBase):
         -------
         numba.core.compiler.CompileResult
         """
-        with complete_aliases():
+        with _engine_numba():
             return super().compile_ir(func_ir, lifted, lifted_from)
